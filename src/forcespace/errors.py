@@ -1,0 +1,22 @@
+"""Errors that reach the user as one clear line (never a numba traceback)."""
+
+
+class ForcespaceError(Exception):
+    """Base class of every error forcespace reports to a user."""
+
+
+class InputError(ForcespaceError):
+    """Bad input: names the file, the field and what is allowed.
+
+    ``InputError("inputs/a.toml", "disks.n", "must be an integer >= 1", got=0)``
+    reads ``inputs/a.toml: disks.n = 0: must be an integer >= 1``.
+    """
+
+    def __init__(self, source, field, allowed, got=None):
+        self.source, self.field, self.allowed, self.got = str(source), field, allowed, got
+        value = "" if got is None else f" = {got!r}"
+        super().__init__(f"{self.source}: {field}{value}: {allowed}")
+
+
+class NumericalError(ForcespaceError):
+    """A computation produced a non-finite value or failed to converge where it must."""

@@ -1,0 +1,99 @@
+"""Self-describing, atomically written HDF5 files.
+
+Every dataset carries ``units`` and ``description`` attributes; 2-D tables also
+carry ``columns``. Files are written to a temporary name in the target folder
+and renamed into place, so a crash never leaves a half-written result.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from . import __version__
+from .errors import InputError
+
+
+@contextlib.contextmanager
+def atomic_h5(path, mode_attrs: dict | None = None):
+    """Open a new HDF5 file for writing at a temporary path; rename on success.
+
+    Yields an open ``h5py.File``. On exception the temporary file is removed and
+    ``path`` is left untouched. Root attributes ``forcespace_version`` and
+    ``file_kind`` (from ``mode_attrs``) are set.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["forcespace_version"] = __version__
+            for k, v in (mode_attrs or {}).items():
+                f.attrs[k] = v
+            yield f
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+
+
+def atomic_replace_copy(path):
+    """Context manager for *modifying* an existing HDF5 file atomically.
+
+    Copies ``path`` to a temporary file, yields it opened in ``r+`` mode and
+    renames it over ``path`` on success (used by resumable samplers).
+    """
+    import shutil
+
+    @contextlib.contextmanager
+    def _cm():
+        p = Path(path)
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+        os.close(fd)
+        try:
+            shutil.copyfile(p, tmp)
+            with h5py.File(tmp, "r+") as f:
+                yield f
+            os.replace(tmp, p)
+        except BaseException:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp)
+            raise
+
+    return _cm()
+
+
+def write_dataset(group, name, data, units: str, description: str, columns=None):
+    """Write one dataset with its ``units``, ``description`` and optional ``columns``."""
+    ds = group.create_dataset(name, data=np.asarray(data))
+    ds.attrs["units"] = units
+    ds.attrs["description"] = description
+    if columns is not None:
+        ds.attrs["columns"] = list(columns)
+    return ds
+
+
+def open_h5(path, kind: str | None = None):
+    """Open an existing forcespace HDF5 file read-only, with a clear error.
+
+    ``kind`` checks the root attribute ``file_kind`` (e.g. "packing").
+    """
+    p = Path(path)
+    if not p.exists():
+        raise InputError(p, "(file)", "does not exist")
+    try:
+        f = h5py.File(p, "r")
+    except OSError as exc:
+        raise InputError(p, "(file)", f"is not a readable HDF5 file ({exc})") from None
+    if kind is not None:
+        got = f.attrs.get("file_kind")
+        if got != kind:
+            f.close()
+            raise InputError(p, "file_kind", f"expected a forcespace '{kind}' file", got=got)
+    return f

@@ -1,0 +1,210 @@
+"""A jammed packing: disks, box, contact network and contact forces.
+
+Conventions (used everywhere in forcespace)
+-------------------------------------------
+* Units: lengths in R (the smallest radius of the scene's radius range),
+  masses in rho*R^2 (2-D density rho, disk mass = density*pi*r^2),
+  forces in the scene's force unit F0 (the top-plate load is given in F0).
+* Bodies: disks are 0..n-1. Walls have negative codes: ``BOTTOM`` (fixed
+  lower plate), ``TOP`` (load-controlled upper plate, vertical motion only),
+  ``LEFT`` and ``RIGHT`` (side walls, only when x is not periodic).
+* A contact k joins body ``a[k]`` and body ``b[k]``; ``normal[k]`` is the
+  unit vector from a to b; the force ``fn*n + ft*t`` acts on b and its
+  negative on a, with t = (-n_y, n_x) (n turned by +90 degrees).
+  ``fn > 0`` is compression. For a disk the torque of contact k is
+  ``-r*ft`` on b and ``-r*ft`` on a (both bodies turn the same way).
+* Periodic x: b's centre is taken at ``x_b + image*width``.
+* Wall contacts: BOTTOM is always ``a`` (n = (0, 1)), TOP is always ``b``
+  (n = (0, 1)), LEFT is ``a`` (n = (1, 0)), RIGHT is ``b`` (n = (1, 0)).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+BOTTOM, TOP, LEFT, RIGHT = -1, -2, -3, -4
+WALL_NAMES = {BOTTOM: "bottom", TOP: "top", LEFT: "left", RIGHT: "right"}
+
+
+@dataclass
+class Packing:
+    """A static packing with its contact network and one admissible force state.
+
+    Arrays: x, y, r of shape (n,) [R]; a, b, image of shape (Nc,) int;
+    normal, point of shape (Nc, 2); gap, fn, ft of shape (Nc,) [R], [F0], [F0].
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    r: np.ndarray
+    width: float
+    periodic_x: bool
+    y_bottom: float          # top surface of the lower plate [R] (nan: no plate)
+    y_top: float             # bottom surface of the upper plate [R] (nan: no plate)
+    top_force: float         # downward load on the upper plate [F0]
+    gravity: float           # acceleration along -y [F0/(rho R^3)]
+    density: float           # 2-D density [rho]
+    mu: float                # disk-disk Coulomb friction
+    plate_mu: float          # disk-wall Coulomb friction
+    a: np.ndarray
+    b: np.ndarray
+    normal: np.ndarray
+    point: np.ndarray
+    image: np.ndarray
+    gap: np.ndarray
+    fn: np.ndarray
+    ft: np.ndarray
+    seed: int = 0
+    scene_text: str = ""
+    scene_name: str = ""
+    meta: dict = field(default_factory=dict)
+
+    # ---- derived quantities -------------------------------------------------
+    @property
+    def n_disks(self) -> int:
+        return int(self.x.shape[0])
+
+    @property
+    def n_contacts(self) -> int:
+        return int(self.a.shape[0])
+
+    @property
+    def mass(self) -> np.ndarray:
+        """Disk masses, shape (n,) [rho R^2]."""
+        return self.density * np.pi * self.r**2
+
+    @property
+    def tangent(self) -> np.ndarray:
+        """Unit tangents t = (-n_y, n_x), shape (Nc, 2)."""
+        return np.stack([-self.normal[:, 1], self.normal[:, 0]], axis=1)
+
+    def contact_forces(self) -> np.ndarray:
+        """Force vectors on body b, shape (Nc, 2) [F0]."""
+        return self.fn[:, None] * self.normal + self.ft[:, None] * self.tangent
+
+    def external_forces(self) -> np.ndarray:
+        """Body forces on the disks (gravity), shape (n, 2) [F0]."""
+        f = np.zeros((self.n_disks, 2))
+        if self.gravity != 0.0:
+            f[:, 1] = -self.mass * self.gravity
+        return f
+
+    def net_forces(self, fn=None, ft=None):
+        """Net force (n, 2) and torque (n,) on every disk, and net vertical force on TOP.
+
+        Uses the packing's forces unless ``fn``/``ft`` are given.
+        """
+        fn = self.fn if fn is None else fn
+        ft = self.ft if ft is None else ft
+        F = fn[:, None] * self.normal + ft[:, None] * self.tangent
+        n = self.n_disks
+        force = self.external_forces()
+        torque = np.zeros(n)
+        ma, mb = self.a >= 0, self.b >= 0
+        np.add.at(force, self.b[mb], F[mb])
+        np.add.at(force, self.a[ma], -F[ma])
+        np.add.at(torque, self.b[mb], -self.r[self.b[mb]] * ft[mb])
+        np.add.at(torque, self.a[ma], -self.r[self.a[ma]] * ft[ma])
+        top = (self.b == TOP)
+        plate = float(F[top, 1].sum() - self.top_force) if np.isfinite(self.y_top) else 0.0
+        return force, torque, plate
+
+    def mean_normal_force(self) -> float:
+        """Mean normal force over force-bearing contacts [F0] (0 if none)."""
+        carrying = self.fn > 0
+        return float(self.fn[carrying].mean()) if carrying.any() else 0.0
+
+    def equilibrium_residual(self, fn=None, ft=None) -> float:
+        """Largest force/torque imbalance of any disk or the top plate.
+
+        Force imbalances are divided by the mean normal force, torques by
+        r_k times the mean normal force. Disks without contacts and without
+        body forces (rattlers in zero gravity) are in equilibrium trivially.
+        """
+        force, torque, plate = self.net_forces(fn, ft)
+        scale = self.mean_normal_force()
+        if scale == 0.0:
+            return 0.0 if not (np.abs(force).max(initial=0) > 0) else float("inf")
+        res = max(np.abs(force).max(initial=0.0),
+                  (np.abs(torque) / self.r).max(initial=0.0), abs(plate))
+        return float(res / scale)
+
+    def max_overlap(self) -> float:
+        """Largest overlap (negative gap) among the contacts [R]; 0 if none."""
+        return float(max(0.0, -self.gap.min(initial=0.0)))
+
+    def force_bearing(self, rel_threshold: float = 1e-9) -> np.ndarray:
+        """Mask (Nc,) of contacts whose normal force exceeds threshold * mean force."""
+        return self.fn > rel_threshold * max(self.mean_normal_force(), 1e-300)
+
+    def rattlers(self, rel_threshold: float = 1e-9) -> np.ndarray:
+        """Boolean mask (n,) of rattlers.
+
+        Convention: iteratively remove disks with fewer than ``k_min``
+        force-bearing contacts (walls count as partners), where k_min = 3 for
+        frictionless packings (mu = 0) and 2 for frictional ones; removing a
+        rattler removes its contacts from its neighbours' counts.
+        """
+        k_min = 3 if self.mu == 0.0 and self.plate_mu == 0.0 else 2
+        live = self.force_bearing(rel_threshold)
+        rattler = np.zeros(self.n_disks, dtype=bool)
+        while True:
+            count = np.zeros(self.n_disks, dtype=int)
+            np.add.at(count, self.a[live & (self.a >= 0)], 1)
+            np.add.at(count, self.b[live & (self.b >= 0)], 1)
+            new = (count < k_min) & ~rattler
+            if not new.any():
+                return rattler
+            rattler |= new
+            dead = np.zeros(self.n_disks + 1, dtype=bool)
+            dead[:-1] = rattler
+            live &= ~(dead[np.where(self.a >= 0, self.a, -1)] & (self.a >= 0))
+            live &= ~(dead[np.where(self.b >= 0, self.b, -1)] & (self.b >= 0))
+
+    def coordination(self, rel_threshold: float = 1e-9) -> float:
+        """z = 2 Nc / n over non-rattler disks, Nc = force-bearing contacts among them.
+
+        Disk-wall contacts count as full contacts, so an isostatic frictionless
+        packing gives z = 4 up to O(1/n) boundary terms.
+        """
+        rat = self.rattlers(rel_threshold)
+        live = self.force_bearing(rel_threshold)
+        keep_a = (self.a < 0) | ~rat[np.maximum(self.a, 0)]
+        keep_b = (self.b < 0) | ~rat[np.maximum(self.b, 0)]
+        nc = int((live & keep_a & keep_b).sum())
+        n = int((~rat).sum())
+        return 2.0 * nc / n if n else 0.0
+
+    def with_forces(self, fn, ft) -> "Packing":
+        """A copy carrying another force state on the same contact network."""
+        return replace(self, fn=np.asarray(fn, float).copy(), ft=np.asarray(ft, float).copy())
+
+    def summary(self) -> dict:
+        """The numbers `forcespace info --json` prints."""
+        rat = self.rattlers()
+        return {
+            "n_disks": self.n_disks,
+            "n_contacts": self.n_contacts,
+            "n_force_bearing": int(self.force_bearing().sum()),
+            "z": self.coordination(),
+            "z_convention": "2*Nc/n over non-rattlers; wall contacts count; "
+                            "rattler: < 3 (mu=0) or < 2 (mu>0) force-bearing contacts, iterated",
+            "n_rattlers": int(rat.sum()),
+            "mu": self.mu,
+            "plate_mu": self.plate_mu,
+            "seed": self.seed,
+            "width": self.width,
+            "height": float(self.y_top - self.y_bottom) if np.isfinite(self.y_top) else None,
+            "packing_fraction": self.packing_fraction(),
+            "mean_normal_force": self.mean_normal_force(),
+            "equilibrium_residual": self.equilibrium_residual(),
+            "max_overlap": self.max_overlap(),
+            **{k: v for k, v in self.meta.items() if isinstance(v, (int, float, str, bool))},
+        }
+
+    def packing_fraction(self) -> float | None:
+        """Disk area over box area (between the plates), or None without both plates."""
+        if not (np.isfinite(self.y_top) and np.isfinite(self.y_bottom)):
+            return None
+        return float(np.pi * (self.r**2).sum() / (self.width * (self.y_top - self.y_bottom)))
