@@ -1,0 +1,391 @@
+"""LIGGGHTS 3.8 adapter: write a deck for a packing, run the binary, read the forces back.
+
+Deck directory layout (written atomically: a temporary folder renamed into place)::
+
+    in.liggghts     input script; its header comment maps every quantity
+    data.lmp        atoms: id type diameter density x y z (id = disk index + 1)
+    load_fx.txt     per-atom fixed loads (atomfile format) [F0]
+    load_fy.txt
+    deck.json       options, derived quantities (dt, gamma, tolerances), id map
+    -- after `run` --
+    screen.txt      unbuffered screen output (-echo screen), log.liggghts
+    atoms.dump      final per-atom state (id x y radius fx fy tqz, wall force)
+    contacts.dump   final per-contact forces from compute pair/gran/local
+    status.json     converged flag, steps, wall time, return code
+
+Mapping (units identical to forcespace: lengths R, forces F0, density rho):
+2-D (``dimension 2``, thin periodic z slab, ``fix enforce2d`` last), periodic
+x over [0, width), bottom plate = primitive ``yplane`` granular wall (atom
+type 2) with friction ``plate_mu``; top-plate contact forces and gravity as
+fixed per-disk loads through the centres (``fix addforce`` with atomfile
+variables, ramped in linearly). Hookean contacts ``hooke/stiffness`` with kn,
+kt = kt_ratio*kn, gamma_n = gamma_t = 2*zeta*sqrt(kn/m_ref) (LIGGGHTS
+multiplies by the pair's effective mass, so the damping ratio is zeta for
+pairs of effective mass m_ref = m_min/2 and larger for heavier pairs).
+dt = t_c * dt_fraction with t_c = pi*sqrt(m_ref/kn).
+LIGGGHTS has no per-atom torque in this build, so boundary loads with a torque
+(frictional slice loads, frictional top plate) are refused.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from forcespace.errors import ForcespaceError, InputError
+from forcespace.packing import BOTTOM, TOP, Packing
+
+from .problem import SoftProblem
+
+DECK_VERSION = 1
+
+
+class LiggghtsError(ForcespaceError):
+    """LIGGGHTS is missing, failed, or its output cannot be read."""
+
+
+@dataclass
+class LiggghtsOptions:
+    """Parameters of a LIGGGHTS run.
+
+    kn [F0/R] normal stiffness; kt_ratio = kt/kn; damping_ratio zeta (0.5-1
+    settles fastest); dt_fraction: dt = t_c*dt_fraction (t_c/50 is safe);
+    tolerance: stop when the largest per-disk residual sqrt(F^2 + (T/r)^2) is
+    below tolerance * mean rigid normal force; ramp_steps: steps over which the
+    loads rise linearly from 0; check_every: steps between convergence checks;
+    max_steps: give up after this many steps (status converged = False).
+    """
+
+    kn: float = 1e4
+    kt_ratio: float = 2.0 / 7.0
+    damping_ratio: float = 0.7
+    dt_fraction: float = 1.0 / 50.0
+    tolerance: float = 1e-7
+    ramp_steps: int = 5000
+    check_every: int = 1000
+    max_steps: int = 2_000_000
+
+    def validate(self, source="options"):
+        checks = [("kn", self.kn > 0, "> 0"), ("kt_ratio", self.kt_ratio >= 0, ">= 0"),
+                  ("damping_ratio", self.damping_ratio >= 0, ">= 0"),
+                  ("dt_fraction", 0 < self.dt_fraction <= 0.1, "in (0, 0.1] (t_c/10 fails)"),
+                  ("tolerance", self.tolerance > 0, "> 0"),
+                  ("ramp_steps", self.ramp_steps >= 1, ">= 1"),
+                  ("check_every", self.check_every >= 1, ">= 1"),
+                  ("max_steps", self.max_steps >= self.ramp_steps, ">= ramp_steps")]
+        for name, ok, allowed in checks:
+            if not (ok and np.isfinite(getattr(self, name))):
+                raise InputError(source, name, f"must be {allowed}", got=getattr(self, name))
+
+
+def _fmt(v: float) -> str:
+    return repr(float(v))
+
+
+def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None = None,
+               source="packing") -> Path:
+    """Write the LIGGGHTS deck for ``problem`` into ``directory`` (replaced atomically).
+
+    Refuses (InputError) what LIGGGHTS cannot represent exactly: loads with a
+    torque, slices (no walls), packings not periodic in x.
+    """
+    opt = options or LiggghtsOptions()
+    opt.validate()
+    p = problem.packing
+    if not p.periodic_x:
+        raise InputError(source, "box.periodic_x", "LIGGGHTS export needs a packing periodic in x")
+    if problem.bottom_wall is None or not problem.active.all():
+        raise InputError(source, "slice", "LIGGGHTS export supports the full packing only "
+                         "(slice loads are frictional and need per-atom torques, which "
+                         "LIGGGHTS 3.8 lacks); use the pymunk adapter for slices")
+    if problem.frictional_loads:
+        raise InputError(source, "plate_mu / top-plate ft",
+                         "the top-plate forces have tangential parts; applying them needs a "
+                         "per-atom torque that LIGGGHTS 3.8 lacks (no fix addtorque) — only "
+                         "frictionless top-plate loads can be exported exactly; use pymunk")
+    n = p.n_disks
+    m = p.mass
+    m_ref = 0.5 * float(m.min())
+    t_c = np.pi * np.sqrt(m_ref / opt.kn)
+    dt = t_c * opt.dt_fraction
+    gamma = 2.0 * opt.damping_ratio * np.sqrt(opt.kn / m_ref)
+    kt = opt.kt_ratio * opt.kn
+    scale = problem.force_scale
+    tol_abs = opt.tolerance * scale
+    W = float(p.width)
+    x = np.mod(p.x, W)
+    ybot = float(problem.bottom_wall)
+    rmax = float(p.r.max())
+    ylo = ybot - 2.0 * rmax
+    yhi = float(np.max(p.y + p.r)) + 4.0 * rmax
+    skin = 0.25 * float(p.r.min())
+    mu, wmu = float(problem.mu), float(problem.wall_mu)
+    n_chunks = max(1, (opt.max_steps - opt.ramp_steps) // opt.check_every)
+
+    directory = Path(directory)
+    directory.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", dir=directory.parent))
+    try:
+        with open(tmp / "data.lmp", "w") as f:
+            f.write("LAMMPS data file written by forcespace_adapters.liggghts\n\n")
+            f.write(f"{n} atoms\n2 atom types\n\n")
+            f.write(f"0.0 {_fmt(W)} xlo xhi\n{_fmt(ylo)} {_fmt(yhi)} ylo yhi\n"
+                    f"-0.5 0.5 zlo zhi\n\nAtoms\n\n")
+            for i in range(n):
+                f.write(f"{i + 1} 1 {_fmt(2 * p.r[i])} {_fmt(p.density)} "
+                        f"{_fmt(x[i])} {_fmt(p.y[i])} 0.0\n")
+        for comp, name in ((0, "load_fx.txt"), (1, "load_fy.txt")):
+            with open(tmp / name, "w") as f:
+                f.write(f"# fixed load component {'xy'[comp]} on each disk [F0]\n{n}\n")
+                for i in range(n):
+                    f.write(f"{i + 1} {_fmt(problem.load[i, comp])}\n")
+        header = f"""# forcespace -> LIGGGHTS 3.8 deck (generated; do not edit by hand)
+# packing: {p.scene_name or '?'} seed {p.seed}, {n} disks, {p.n_contacts} rigid contacts
+# units: lj numbers = forcespace units: lengths R, forces F0, density rho (mass = rho*pi*r^2 in 2-D)
+# atoms: id = forcespace disk index + 1, type 1; the bottom plate is material type 2
+# box: x periodic [0, {W:g}) (= packing width), y fixed [{ylo:g}, {yhi:g}], thin periodic z slab
+# bottom plate: fix wall/gran primitive yplane {ybot:g} (packing y_bottom), friction {wmu:g} (plate_mu)
+# top plate: removed; its rigid contact forces (frictionless, through the centres) and gravity
+#   are fixed per-disk loads in load_fx.txt / load_fy.txt, applied by fix addforce, ramped
+#   linearly from 0 over {opt.ramp_steps} steps
+# contacts: hooke/stiffness, kn = {opt.kn:g} F0/R, kt = {opt.kt_ratio:g}*kn = {kt:g},
+#   friction mu = {mu:g} (disk-disk), tangential history (Coulomb-capped spring)
+# damping: gamma_n = gamma_t = {gamma:g} (times the pair's effective mass, damping ratio
+#   {opt.damping_ratio:g} for effective mass m_ref = m_min/2 = {m_ref:g})
+# time step: dt = t_c*{opt.dt_fraction:g} = {dt:g}, t_c = pi*sqrt(m_ref/kn) = {t_c:g}
+# stop: every {opt.check_every} steps, when max over disks of sqrt(fx^2+fy^2+(tqz/r)^2)
+#   < {tol_abs:g} F0 (= {opt.tolerance:g} x mean rigid normal force {scale:g}), at most {opt.max_steps} steps
+# output: velocities and spins zeroed, run 0, then atoms.dump (id x y radius fx fy tqz wall fx fy)
+#   and contacts.dump (compute pair/gran/local: id1 id2 periodic-flag, force on atom id1 (3),
+#   normal part (3), tangential part (3), overlap delta)
+"""
+        script = header + f"""
+atom_style granular
+atom_modify map array
+boundary p f p
+newton off
+communicate single vel yes
+units lj
+dimension 2
+read_data data.lmp
+neighbor {_fmt(skin)} bin
+neigh_modify delay 0
+
+fix m1 all property/global kn peratomtypepair 2 {_fmt(opt.kn)} {_fmt(opt.kn)} {_fmt(opt.kn)} {_fmt(opt.kn)}
+fix m2 all property/global kt peratomtypepair 2 {_fmt(kt)} {_fmt(kt)} {_fmt(kt)} {_fmt(kt)}
+fix m3 all property/global gamman peratomtypepair 2 {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)}
+fix m4 all property/global gammat peratomtypepair 2 {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)}
+fix m5 all property/global coefficientFriction peratomtypepair 2 {_fmt(mu)} {_fmt(wmu)} {_fmt(wmu)} {_fmt(wmu)}
+
+pair_style gran model hooke/stiffness tangential history limitForce on
+pair_coeff * *
+timestep {_fmt(dt)}
+
+fix wall all wall/gran model hooke/stiffness tangential history primitive type 2 yplane {_fmt(ybot)} store_force yes limitForce on
+fix integr all nve/sphere
+
+variable s equal ramp(0.0,1.0)
+variable lfx atomfile load_fx.txt
+variable lfy atomfile load_fy.txt
+variable ax atom v_s*v_lfx
+variable ay atom v_s*v_lfy
+fix load all addforce v_ax v_ay 0.0
+
+compute rad all property/atom radius tqz
+variable res atom sqrt(fx*fx+fy*fy+(c_rad[2]/c_rad[1])^2)
+compute rmax all reduce max v_res
+variable rmax equal c_rmax
+compute cpg all pair/gran/local id force force_normal force_tangential delta
+fix twod all enforce2d
+
+thermo_style custom step atoms ke c_rmax
+thermo_modify norm no lost error
+thermo {opt.check_every}
+
+run {opt.ramp_steps}
+variable s delete
+variable s equal 1.0
+variable it loop {n_chunks}
+label loop
+run {opt.check_every}
+if "${{rmax}} < {_fmt(tol_abs)}" then "jump SELF converged"
+next it
+jump SELF loop
+print "FORCESPACE_STATUS not_converged"
+jump SELF final
+label converged
+print "FORCESPACE_STATUS converged"
+label final
+
+velocity all set 0.0 0.0 0.0
+set group all omegaz 0.0
+dump dc all local 1 contacts.dump c_cpg[1] c_cpg[2] c_cpg[3] c_cpg[4] c_cpg[5] c_cpg[6] c_cpg[7] c_cpg[8] c_cpg[9] c_cpg[10] c_cpg[11] c_cpg[12] c_cpg[13]
+dump_modify dc format "%.0f %.0f %.0f %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"
+dump da all custom 1 atoms.dump id x y radius fx fy tqz f_force_wall[1] f_force_wall[2]
+dump_modify da format "%d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"
+run 0
+print "FORCESPACE_DONE"
+"""
+        (tmp / "in.liggghts").write_text(script)
+        meta = {"deck_version": DECK_VERSION, "code": "liggghts", "options": asdict(opt),
+                "n_disks": n, "width": W, "y_bottom": ybot, "m_ref": m_ref, "t_c": t_c,
+                "dt": dt, "gamma": gamma, "kt": kt, "force_scale": scale,
+                "tolerance_abs": tol_abs, "mu": mu, "wall_mu": wmu,
+                "load": problem.load.tolist(), "top_load": problem.top_load.tolist(),
+                "packing": {"scene_name": p.scene_name, "seed": p.seed}}
+        (tmp / "deck.json").write_text(json.dumps(meta, indent=1))
+        if directory.exists():
+            shutil.rmtree(directory)
+        os.replace(tmp, directory)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return directory
+
+
+def find_binary(binary: str | None = None) -> str:
+    """Path of the LIGGGHTS executable (``$FORCESPACE_LIGGGHTS`` or ``liggghts`` on PATH)."""
+    name = binary or os.environ.get("FORCESPACE_LIGGGHTS", "liggghts")
+    path = shutil.which(name)
+    if path is None:
+        raise LiggghtsError(f"LIGGGHTS binary '{name}' not found; install it with "
+                            f"`sudo apt-get install liggghts` or pass its path (--binary)")
+    return path
+
+
+def run_deck(directory, binary: str | None = None, timeout: float | None = None) -> dict:
+    """Run LIGGGHTS on a deck directory; write and return ``status.json``.
+
+    Output is unbuffered (``stdbuf -o0``) with ``-echo screen`` into
+    ``screen.txt``; on failure the ERROR lines are raised as LiggghtsError.
+    """
+    d = Path(directory)
+    if not (d / "in.liggghts").is_file():
+        raise InputError(d, "in.liggghts", "missing; write the deck first (forcespace export liggghts)")
+    exe = find_binary(binary)
+    for name in ("atoms.dump", "contacts.dump", "status.json"):
+        (d / name).unlink(missing_ok=True)
+    cmd = [exe, "-in", "in.liggghts", "-echo", "screen", "-log", "log.liggghts"]
+    if shutil.which("stdbuf"):
+        cmd = ["stdbuf", "-o0", "-e0"] + cmd
+    t0 = time.perf_counter()
+    with open(d / "screen.txt", "w") as out:
+        try:
+            proc = subprocess.run(cmd, cwd=d, stdout=out, stderr=subprocess.STDOUT,
+                                  timeout=timeout, stdin=subprocess.DEVNULL)
+            rc = proc.returncode
+        except subprocess.TimeoutExpired:
+            raise LiggghtsError(f"{d}: LIGGGHTS exceeded the time limit of {timeout} s "
+                                f"(see {d / 'screen.txt'})") from None
+    wall = time.perf_counter() - t0
+    text = (d / "screen.txt").read_text(errors="replace")
+    errors = [ln.strip() for ln in text.splitlines() if "ERROR" in ln]
+    if rc != 0 or errors or "FORCESPACE_DONE" not in text:
+        msg = "; ".join(errors[:3]) or (text.strip().splitlines() or ["(no output)"])[-1]
+        raise LiggghtsError(f"{d}: LIGGGHTS failed (exit code {rc}): {msg} "
+                            f"(full log: {d / 'screen.txt'})")
+    steps = 0
+    for ln in text.splitlines():
+        if ln.startswith("Loop time of"):
+            parts = ln.split()
+            steps += int(parts[parts.index("for") + 1])
+    status = {"converged": "FORCESPACE_STATUS converged" in text, "steps": steps,
+              "wall_time_s": wall, "return_code": rc, "binary": exe}
+    tmp = d / ".status.json.tmp"
+    tmp.write_text(json.dumps(status, indent=1))
+    os.replace(tmp, d / "status.json")
+    return status
+
+
+def _read_dump_table(path, section: str) -> np.ndarray:
+    lines = Path(path).read_text().splitlines()
+    idx = [i for i, ln in enumerate(lines) if ln.startswith(f"ITEM: {section}")]
+    if not idx:
+        raise LiggghtsError(f"{path}: no 'ITEM: {section}' block; the run did not finish")
+    rows = [ln.split() for ln in lines[idx[-1] + 1:] if ln.strip() and not ln.startswith("ITEM")]
+    return np.array(rows, dtype=float).reshape(len(rows), -1) if rows else np.zeros((0, 1))
+
+
+def read_result(directory, rigid: Packing | None = None):
+    """Read a finished run back as a soft-network :class:`Packing` (same schema).
+
+    Contacts: disk pairs from ``contacts.dump`` (a = first atom, b = second,
+    image from the minimal-image separation), bottom-wall contacts from the
+    per-atom wall force (a = BOTTOM), and the fixed top loads as TOP contacts
+    (b = TOP, fn = applied load, so the plate balance holds). fn, ft are the
+    soft force on b in the soft geometry (normal from the final centres).
+    ``rigid`` supplies box, friction and scene fields; without it they come
+    from deck.json. Returns (soft_packing, run_info dict).
+    """
+    d = Path(directory)
+    try:
+        meta = json.loads((d / "deck.json").read_text())
+        status = json.loads((d / "status.json").read_text())
+    except FileNotFoundError as exc:
+        raise InputError(d, Path(exc.filename).name, "missing; run the deck first "
+                         "(forcespace run liggghts DIR)") from None
+    atoms = _read_dump_table(d / "atoms.dump", "ATOMS")
+    cont = _read_dump_table(d / "contacts.dump", "ENTRIES")
+    n = meta["n_disks"]
+    if atoms.shape[0] != n:
+        raise LiggghtsError(f"{d / 'atoms.dump'}: {atoms.shape[0]} atoms, expected {n} (atoms lost?)")
+    order = np.argsort(atoms[:, 0])
+    atoms = atoms[order]
+    x, y, r = atoms[:, 1], atoms[:, 2], atoms[:, 3]
+    resid = atoms[:, 4:6]
+    wall = atoms[:, 7:9]
+    W = float(meta["width"])
+    A, B, IMG, NRM, PT, GAP, FN, FT = [], [], [], [], [], [], [], []
+    for row in cont.reshape(-1, 13) if cont.size else []:
+        i, j = int(round(row[0])) - 1, int(round(row[1])) - 1
+        f_on_i = row[3:5]
+        dx = x[j] - x[i]
+        image = -int(np.round(dx / W))
+        dvec = np.array([dx + image * W, y[j] - y[i]])
+        dist = np.linalg.norm(dvec)
+        nv = dvec / dist
+        F = -f_on_i                      # force on b = j
+        A.append(i); B.append(j); IMG.append(image); NRM.append(nv)
+        GAP.append(dist - r[i] - r[j]); PT.append(np.array([x[i], y[i]]) + (r[i] + 0.5 * GAP[-1]) * nv)
+        FN.append(F @ nv); FT.append(F @ np.array([-nv[1], nv[0]]))
+    ybot = float(meta["y_bottom"])
+    for i in np.flatnonzero(wall[:, 1] != 0.0):
+        A.append(BOTTOM); B.append(int(i)); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
+        GAP.append(y[i] - r[i] - ybot); PT.append(np.array([x[i], ybot]))
+        FN.append(wall[i, 1]); FT.append(-wall[i, 0])   # t = (-1, 0) for n = (0, 1)
+    top_load = np.asarray(meta["top_load"])
+    top_force = 0.0
+    for i in np.flatnonzero(top_load != 0.0):
+        A.append(int(i)); B.append(TOP); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
+        GAP.append(0.0); PT.append(np.array([x[i], y[i] + r[i]]))
+        FN.append(top_load[i]); FT.append(0.0)
+        top_force += top_load[i]
+    opt = meta["options"]
+    info = {"code": "liggghts", "kn": opt["kn"], "kt_ratio": opt["kt_ratio"],
+            "damping_ratio": opt["damping_ratio"], "dt": meta["dt"], "t_c": meta["t_c"],
+            "tolerance": opt["tolerance"], "tolerance_abs": meta["tolerance_abs"],
+            "steps": status["steps"], "converged": bool(status["converged"]),
+            "wall_time_s": status["wall_time_s"],
+            "max_residual_force": float(np.linalg.norm(resid, axis=1).max(initial=0.0)),
+            "deck": str(d.resolve())}
+    kw = dict(width=W, periodic_x=True, y_bottom=ybot, y_top=float("nan"),
+              top_force=top_force, gravity=0.0, density=1.0, mu=meta["mu"],
+              plate_mu=meta["wall_mu"], seed=meta["packing"]["seed"],
+              scene_name=meta["packing"]["scene_name"], scene_text="")
+    if rigid is not None:
+        kw.update(gravity=rigid.gravity, density=rigid.density, y_top=rigid.y_top,
+                  scene_text=rigid.scene_text, top_force=rigid.top_force)
+    soft = Packing(x=x.copy(), y=y.copy(), r=r.copy(),
+                   a=np.array(A, dtype=np.int64), b=np.array(B, dtype=np.int64),
+                   normal=np.array(NRM).reshape(-1, 2), point=np.array(PT).reshape(-1, 2),
+                   image=np.array(IMG, dtype=np.int64), gap=np.array(GAP, dtype=float),
+                   fn=np.array(FN, dtype=float), ft=np.array(FT, dtype=float),
+                   meta=dict(info), **kw)
+    return soft, info
