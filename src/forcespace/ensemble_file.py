@@ -1,0 +1,174 @@
+"""The ensemble file: sampled force networks of one statics problem (HDF5).
+
+Layout::
+
+    /            attrs: file_kind="ensemble", forcespace_version, sampler,
+                        packing_file, scene_name, scene_text, problem_kind,
+                        slice_height, fingerprint, params (JSON), units,
+                        conventions, tolerance_description
+    /problem/contacts  (m,)  packing contact index of each unknown contact
+    /problem/disks     (n,)  packing disk index of each interior disk
+    /problem/mu        (m,)  Coulomb coefficient per unknown contact
+    /problem/x_jammed  (m, 2) the packing's (jammed) forces fn, ft     [F0]
+    /samples           (k, m, 2) sampled forces fn, ft per contact      [F0]
+    /sample_chain      (k,)  chain that produced each sample
+    /sample_violation  (k,)  max violation of S, relative to <Fn>       [1]
+    /setup/...         sampler set-up arrays (e.g. affine frame, rounding)
+    /checkpoint/...    state to resume: arrays + attrs (rng state as JSON)
+
+Every write goes through a temporary copy renamed into place (h5io), so a kill
+leaves either the previous or the new complete file.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .h5io import atomic_h5, atomic_replace_copy, open_h5, write_dataset
+from .statics import StaticsProblem
+
+KIND = "ensemble"
+
+
+def fingerprint(problem: StaticsProblem, sampler: str, params: dict) -> str:
+    """Hash of the problem (A, b, mu, contacts) and the sampler parameters."""
+    h = hashlib.sha256()
+    A = problem.A.tocsr()
+    for arr in (A.indptr, A.indices, np.round(A.data, 12), np.round(problem.b, 12),
+                problem.mu, problem.contacts):
+        h.update(np.ascontiguousarray(arr).tobytes())
+    h.update(sampler.encode())
+    h.update(json.dumps(params, sort_keys=True).encode())
+    return h.hexdigest()[:32]
+
+
+@dataclass
+class Ensemble:
+    """An ensemble file read into memory. samples: (k, 2m) in problem column order."""
+
+    path: str
+    sampler: str
+    samples: np.ndarray
+    chains: np.ndarray
+    violations: np.ndarray
+    contacts: np.ndarray
+    disks: np.ndarray
+    mu: np.ndarray
+    x_jammed: np.ndarray
+    force_scale: float
+    attrs: dict = field(default_factory=dict)
+    setup: dict = field(default_factory=dict)
+    checkpoint: dict = field(default_factory=dict)
+    checkpoint_attrs: dict = field(default_factory=dict)
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.samples.shape[0])
+
+
+def _write_state(f, group_name, arrays: dict, attrs: dict | None = None, describe=None):
+    if group_name in f:
+        del f[group_name]
+    g = f.create_group(group_name)
+    for k, v in arrays.items():
+        units, desc = (describe or {}).get(k, ("1", k))
+        write_dataset(g, k, np.asarray(v), units, desc)
+    for k, v in (attrs or {}).items():
+        g.attrs[k] = v
+    return g
+
+
+def create(path, problem: StaticsProblem, sampler: str, params: dict, packing_file: str,
+           scene_name: str, scene_text: str, setup: dict, setup_describe: dict,
+           checkpoint: dict, checkpoint_attrs: dict, tolerance_description: str) -> None:
+    """Write a new ensemble file with no samples yet."""
+    fp = fingerprint(problem, sampler, params)
+    m = problem.n_contacts
+    with atomic_h5(path, {"file_kind": KIND}) as f:
+        f.attrs.update({
+            "sampler": sampler, "packing_file": str(packing_file), "scene_name": scene_name,
+            "scene_text": scene_text, "problem_kind": problem.kind,
+            "slice_height": np.nan if problem.height is None else problem.height,
+            "fingerprint": fp, "params": json.dumps(params, sort_keys=True),
+            "force_scale": problem.force_scale,
+            "units": "forces in F0 (the packing's force unit); lengths in R",
+            "conventions": "samples[k, j] = (fn, ft) of unknown contact j (packing contact "
+                           "problem/contacts[j]); force fn*n + ft*t on body b, t = (-ny, nx)",
+            "tolerance_description": tolerance_description})
+        g = f.create_group("problem")
+        g.attrs["description"] = "the statics problem the samples solve (see forcespace.statics)"
+        write_dataset(g, "contacts", problem.contacts, "1", "packing contact index per unknown")
+        write_dataset(g, "disks", problem.disks, "1", "packing disk index per interior disk")
+        write_dataset(g, "mu", problem.mu, "1", "Coulomb coefficient per unknown contact")
+        write_dataset(g, "x_jammed", problem.x_jammed.reshape(m, 2), "F0",
+                      "jammed (packing) forces of the unknown contacts", columns=["fn", "ft"])
+        ds = f.create_dataset("samples", shape=(0, m, 2), maxshape=(None, m, 2), dtype="f8",
+                              chunks=(max(1, min(64, 65536 // max(1, 2 * m))), m, 2))
+        ds.attrs.update({"units": "F0", "description": "sampled admissible force networks",
+                         "columns": ["fn", "ft"]})
+        for name, dt, desc in (("sample_chain", "i8", "chain index of each sample"),
+                               ("sample_violation", "f8",
+                                "max violation of equilibrium/Coulomb relative to <Fn>")):
+            d = f.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dt, chunks=(1024,))
+            d.attrs.update({"units": "1", "description": desc})
+        _write_state(f, "setup", setup, describe=setup_describe)
+        _write_state(f, "checkpoint", checkpoint, checkpoint_attrs)
+
+
+def append(path, X, chains, violations, checkpoint: dict, checkpoint_attrs: dict) -> int:
+    """Append samples X (k, 2m) and replace the checkpoint, atomically. Returns total count."""
+    X = np.asarray(X, float)
+    with atomic_replace_copy(path) as f:
+        ds = f["samples"]
+        k0 = ds.shape[0]
+        k = X.shape[0]
+        ds.resize(k0 + k, axis=0)
+        ds[k0:] = X.reshape(k, -1, 2)
+        for name, vals in (("sample_chain", chains), ("sample_violation", violations)):
+            d = f[name]
+            d.resize(k0 + k, axis=0)
+            d[k0:] = np.asarray(vals)
+        _write_state(f, "checkpoint", checkpoint, checkpoint_attrs)
+        return k0 + k
+
+
+def read(path, samples: bool = True) -> Ensemble:
+    """Read an ensemble file (InputError if it is not one)."""
+    with open_h5(path, KIND) as f:
+        try:
+            g = f["problem"]
+            m = g["contacts"].shape[0]
+            X = f["samples"][()].reshape(-1, 2 * m) if samples else np.empty((0, 2 * m))
+            return Ensemble(
+                path=str(path), sampler=str(f.attrs["sampler"]), samples=X,
+                chains=f["sample_chain"][()], violations=f["sample_violation"][()],
+                contacts=g["contacts"][()], disks=g["disks"][()], mu=g["mu"][()],
+                x_jammed=g["x_jammed"][()].reshape(-1), force_scale=float(f.attrs["force_scale"]),
+                attrs={k: (v.item() if hasattr(v, "item") else v) for k, v in f.attrs.items()},
+                setup={k: v[()] for k, v in f["setup"].items()},
+                checkpoint={k: v[()] for k, v in f["checkpoint"].items()},
+                checkpoint_attrs={k: (v.item() if hasattr(v, "item") else v)
+                                  for k, v in f["checkpoint"].attrs.items()})
+        except KeyError as exc:
+            raise InputError(path, str(exc.args[0]) if exc.args else "?",
+                             "missing; not a complete forcespace ensemble file") from None
+
+
+def existing(path, problem: StaticsProblem, sampler: str, params: dict):
+    """The ensemble at ``path`` if it continues this exact run, None if absent.
+
+    Raises InputError if the file belongs to another problem/sampler/parameters.
+    """
+    p = Path(path)
+    if not p.exists():
+        return None
+    ens = read(p)
+    if ens.attrs.get("fingerprint") != fingerprint(problem, sampler, params):
+        raise InputError(p, "fingerprint", "belongs to another packing, slice, sampler or "
+                         "parameter set; choose another output or delete it to restart")
+    return ens

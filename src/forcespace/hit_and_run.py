@@ -1,0 +1,376 @@
+"""Uniform sampling of S by hit-and-run (Smith 1984) in its affine hull.
+
+Coordinates: x = x_c + T w, with x_c the Chebyshev centre of S, T = N L where
+N (2m, d) is an orthonormal basis of the affine hull of S (d = dim S, from
+polytope.analyze) and L (d, d) a fixed rounding matrix. The non-implicit
+inequalities become ``H w <= s0`` with H = G T, s0 = -G x_c (>= 0).
+
+A step draws a direction u (isotropic Gaussian normalised, "hypersphere"; or
+a random coordinate axis, "coordinate"), intersects the line w + t u with the
+polytope (exact chord) and moves to a uniform point of the chord. Both
+kernels leave the uniform distribution on {H w <= s0} invariant, and a linear
+map keeps uniformity, so the x samples are uniform on S.
+
+Rounding (during burn-in only, then frozen; never adapted while samples are
+kept): a few rounds of isotropic hit-and-run, L <- Cholesky factor of the
+covariance of the visited points (in the current frame). ACHR-style
+continuous adaptation is *not* used (it is not a valid uniform sampler).
+
+Random numbers: xoshiro256** per chain inside numba (state 4 x uint64),
+saved in the checkpoint so that a resumed run continues the same streams.
+
+Diagnostics: split R-hat and a bulk effective sample size (Geyer initial
+monotone sequence) of the per-sample scalar |x - mean|^2 (the quantity η
+averages) and of three fixed random projections; per-chain η.
+"""
+from __future__ import annotations
+
+import json
+import time
+
+import numpy as np
+from numba import njit
+
+from . import ensemble_file as ef
+from .errors import InputError, NumericalError
+from .polytope import analyze
+from .statics import StaticsProblem
+
+MAX_VIOLATION = 1e-9   # every sample: max violation of S relative to <Fn>
+
+
+# ----------------------------------------------------------------------------
+# kernels
+# ----------------------------------------------------------------------------
+@njit(cache=True)
+def _rotl(x, k):
+    return (x << np.uint64(k)) | (x >> np.uint64(64 - k))
+
+
+@njit(cache=True)
+def _next(s):
+    """xoshiro256** step on state s (4,) uint64; returns a uint64."""
+    result = _rotl(s[1] * np.uint64(5), 7) * np.uint64(9)
+    t = s[1] << np.uint64(17)
+    s[2] ^= s[0]
+    s[3] ^= s[1]
+    s[1] ^= s[2]
+    s[0] ^= s[3]
+    s[2] ^= t
+    s[3] = _rotl(s[3], 45)
+    return result
+
+
+@njit(cache=True)
+def _uniform(s):
+    """Uniform double in [0, 1)."""
+    return float(_next(s) >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+
+
+@njit(cache=True)
+def _normal(s):
+    """Standard normal (Box-Muller, one of the pair)."""
+    u1 = _uniform(s)
+    while u1 <= 0.0:
+        u1 = _uniform(s)
+    u2 = _uniform(s)
+    return np.sqrt(-2.0 * np.log(u1)) * np.cos(2.0 * np.pi * u2)
+
+
+@njit(cache=True)
+def har_steps(H, s0, w, state, n_steps, coordinate):
+    """Run ``n_steps`` hit-and-run steps from w (d,) in place; returns #degenerate chords.
+
+    H (p, d), s0 (p,): polytope {H w <= s0}. state (4,) uint64 xoshiro state,
+    advanced in place. coordinate: directions along axes instead of isotropic.
+    Slack s = s0 - H w is recomputed exactly every 64 steps (no drift).
+    """
+    p, d = H.shape
+    slack = s0 - H @ w
+    u = np.zeros(d)
+    Hu = np.zeros(p)
+    bad = 0
+    for step in range(n_steps):
+        if step % 64 == 0 and step > 0:
+            slack = s0 - H @ w
+        if coordinate:
+            c = int(_uniform(state) * d)
+            if c >= d:
+                c = d - 1
+            for j in range(p):
+                Hu[j] = H[j, c]
+        else:
+            nrm = 0.0
+            for i in range(d):
+                u[i] = _normal(state)
+                nrm += u[i] * u[i]
+            nrm = np.sqrt(nrm)
+            for i in range(d):
+                u[i] /= nrm
+            for j in range(p):
+                acc = 0.0
+                for i in range(d):
+                    acc += H[j, i] * u[i]
+                Hu[j] = acc
+        tmin = -np.inf
+        tmax = np.inf
+        for j in range(p):
+            sj = slack[j] if slack[j] > 0.0 else 0.0
+            if Hu[j] > 1e-300:
+                t = sj / Hu[j]
+                if t < tmax:
+                    tmax = t
+            elif Hu[j] < -1e-300:
+                t = sj / Hu[j]
+                if t > tmin:
+                    tmin = t
+        r = _uniform(state)
+        if not (np.isfinite(tmin) and np.isfinite(tmax)) or tmax < tmin:
+            bad += 1
+            continue
+        t = tmin + r * (tmax - tmin)
+        if coordinate:
+            w[c] += t
+        else:
+            for i in range(d):
+                w[i] += t * u[i]
+        for j in range(p):
+            slack[j] -= t * Hu[j]
+    return bad
+
+
+def seed_states(seed: int, n_chains: int) -> np.ndarray:
+    """Independent xoshiro states (n_chains, 4) uint64 from numpy's SeedSequence."""
+    ss = np.random.SeedSequence(seed)
+    return np.array([c.generate_state(4, dtype=np.uint64) for c in ss.spawn(n_chains)],
+                    dtype=np.uint64)
+
+
+# ----------------------------------------------------------------------------
+# diagnostics
+# ----------------------------------------------------------------------------
+def split_rhat(chains: list[np.ndarray]) -> float:
+    """Split-R-hat (Gelman et al.) of a scalar over chains of equal length (>= 4)."""
+    k = min(len(c) for c in chains)
+    if k < 4:
+        return float("nan")
+    half = k // 2
+    parts = []
+    for c in chains:
+        parts += [np.asarray(c[:half]), np.asarray(c[half:2 * half])]
+    parts = np.array(parts)
+    n = parts.shape[1]
+    B = n * parts.mean(1).var(ddof=1)
+    W = parts.var(1, ddof=1).mean()
+    if W == 0:
+        return 1.0 if B == 0 else float("inf")
+    var = (n - 1) / n * W + B / n
+    return float(np.sqrt(var / W))
+
+
+def ess(chains: list[np.ndarray]) -> float:
+    """Effective sample size over chains (Geyer initial monotone sequence)."""
+    k = min(len(c) for c in chains)
+    if k < 4:
+        return float("nan")
+    X = np.array([np.asarray(c[:k], float) for c in chains])
+    M = X.shape[0]
+    mean = X.mean()
+    var = X.var()
+    if var == 0:
+        return float(M * k)
+    rho = []
+    for lag in range(k):
+        ac = np.mean([np.mean((x[:k - lag] - mean) * (x[lag:] - mean)) for x in X]) / var
+        rho.append(ac)
+    rho = np.array(rho)
+    tau = -1.0
+    prev = np.inf
+    for t in range(0, k - 1, 2):
+        pair = rho[t] + rho[t + 1]
+        if pair < 0:
+            break
+        pair = min(pair, prev)
+        prev = pair
+        tau += 2 * pair
+    tau = max(tau, 1.0)
+    return float(M * k / tau)
+
+
+def diagnostics(samples: np.ndarray, chains: np.ndarray, seed: int = 0) -> dict:
+    """R-hat / ESS of |x - mean|^2 and of 3 random projections; per-chain eta."""
+    from .measures import eta as eta_fn
+
+    X = np.asarray(samples, float)
+    ids = np.unique(chains)
+    out = {"n_chains": int(ids.size)}
+    if X.shape[0] < 8:
+        return out
+    mean = X.mean(0)
+    q = ((X - mean) ** 2).sum(1)
+    per = [q[chains == c] for c in ids]
+    out["rhat_sqdev"] = split_rhat(per)
+    out["ess_sqdev"] = ess(per)
+    rng = np.random.default_rng(seed)
+    rh = []
+    es = []
+    for _ in range(3):
+        v = rng.normal(size=X.shape[1])
+        pr = X @ v
+        per = [pr[chains == c] for c in ids]
+        rh.append(split_rhat(per))
+        es.append(ess(per))
+    out["rhat_projections_max"] = float(np.nanmax(rh))
+    out["ess_projections_min"] = float(np.nanmin(es))
+    out["eta_per_chain"] = [float(eta_fn(X[chains == c])) if (chains == c).sum() > 1
+                            else float("nan") for c in ids]
+    return out
+
+
+# ----------------------------------------------------------------------------
+# set-up and driver
+# ----------------------------------------------------------------------------
+def frame(problem: StaticsProblem, analysis=None):
+    """Affine frame of S: (x_c (2m,), N (2m, d), H0 = G_free N (p, d), s0 (p,), free rows)."""
+    an = analysis if analysis is not None else analyze(problem, ranges=False, centre=True)
+    if not an.feasible:
+        raise InputError(problem.source or "problem", "S", "is empty (infeasible): nothing to sample")
+    if not an.bounded:
+        raise InputError(problem.source or "problem", "S",
+                         "is unbounded (a recession direction exists, e.g. a wedged contact); "
+                         "refusing to sample")
+    if an.centre is None:
+        raise NumericalError("no Chebyshev centre computed")
+    G, _, _ = problem.inequalities()
+    free = np.setdiff1d(np.arange(G.shape[0]), an.implicit_rows)
+    N = an.affine_basis
+    # centre projected exactly onto the affine hull through the affine point
+    xc = an.affine_point + N @ (N.T @ (an.centre - an.affine_point))
+    Gf = G[free]
+    H0 = np.asarray(Gf @ N)
+    s0 = -np.asarray(Gf @ xc)
+    return xc, N, H0, s0, free, an
+
+
+def rounding(H0, s0, d, seed, rounds=3, steps_per_point=None, points=None):
+    """Rounding matrix L (d, d) from the covariance of isotropic hit-and-run points."""
+    L = np.eye(d)
+    if d == 0:
+        return L
+    st = seed_states(seed + 7919, 1)[0].copy()
+    spp = steps_per_point or max(5, d // 2)
+    npts = points or max(4 * d, 50)
+    for _ in range(rounds):
+        H = H0 @ L
+        w = np.zeros(d)
+        pts = np.empty((npts, d))
+        har_steps(H, s0, w, st, 10 * spp, False)
+        for i in range(npts):
+            har_steps(H, s0, w, st, spp, False)
+            pts[i] = L @ w
+        C = np.cov(pts.T).reshape(d, d) + 1e-12 * np.eye(d) * max(np.trace(np.atleast_2d(np.cov(pts.T))) / d, 1e-300)
+        try:
+            L = np.linalg.cholesky(C)
+        except np.linalg.LinAlgError:
+            L = np.diag(np.sqrt(np.maximum(np.diag(C), 1e-300)))
+    return L
+
+
+def default_params(problem_dim: int, **kw) -> dict:
+    d = max(problem_dim, 1)
+    p = {"seed": 0, "chains": 4, "thin": max(50, 10 * d), "burn_in": max(500, 100 * d),
+         "direction": "hypersphere", "rounding_rounds": 3}
+    p.update({k: v for k, v in kw.items() if v is not None})
+    return p
+
+
+def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_name: str = "",
+           scene_text: str = "", seed: int = 0, chains: int | None = None, thin: int | None = None,
+           burn_in: int | None = None, direction: str | None = None,
+           checkpoint_every: int = 10, progress: bool = False, analysis=None,
+           max_seconds: float | None = None) -> dict:
+    """Write ``n`` uniform samples of S to ``out`` (resumes if ``out`` continues this run).
+
+    Returns a summary dict (n_samples, wall time, max violation, diagnostics).
+    """
+    if n < 1:
+        raise InputError("sample", "n", "must be >= 1", got=n)
+    if direction not in (None, "hypersphere", "coordinate"):
+        raise InputError("sample", "direction", "must be 'hypersphere' or 'coordinate'", got=direction)
+    t0 = time.perf_counter()
+    xc, N, H0, s0, free, an = frame(problem, analysis)
+    d = N.shape[1]
+    params = default_params(d, seed=seed, chains=chains, thin=thin, burn_in=burn_in,
+                            direction=direction)
+    ens = ef.existing(out, problem, "hit-and-run", params)
+    if ens is None:
+        L = rounding(H0, s0, d, params["seed"], params["rounding_rounds"]) if d else np.eye(0)
+        T = N @ L
+        H = H0 @ L
+        states = seed_states(params["seed"], params["chains"])
+        W = np.zeros((params["chains"], d))
+        for c in range(params["chains"]):
+            if d:
+                har_steps(H, s0, W[c], states[c], params["burn_in"],
+                          params["direction"] == "coordinate")
+        ef.create(out, problem, "hit-and-run", params, packing_file, scene_name, scene_text,
+                  setup={"x_centre": xc, "T": T, "H": H, "s0": s0, "free_rows": free},
+                  setup_describe={"x_centre": ("F0", "Chebyshev centre of S (origin of w)"),
+                                  "T": ("F0", "x = x_centre + T w: affine frame x rounding"),
+                                  "H": ("1", "non-implicit inequalities H w <= s0"),
+                                  "s0": ("F0", "slack of the inequalities at the centre"),
+                                  "free_rows": ("1", "rows of problem.inequalities() kept")},
+                  checkpoint={"w": W, "rng": states},
+                  checkpoint_attrs={"n_done": 0, "steps_per_sample": params["thin"]},
+                  tolerance_description=f"every sample has max violation <= {MAX_VIOLATION} "
+                                        f"relative to <Fn> (checked)")
+        ens = ef.read(out)
+    T, H, s0 = ens.setup["T"], ens.setup["H"], ens.setup["s0"]
+    xc = ens.setup["x_centre"]
+    W = ens.checkpoint["w"].reshape(params["chains"], d).copy()
+    states = ens.checkpoint["rng"].astype(np.uint64).copy()
+    done = ens.n_samples
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=n, initial=min(done, n), desc="hit-and-run", unit="sample",
+                   file=__import__("sys").stderr)
+    buf_x, buf_c, buf_v = [], [], []
+    coord = params["direction"] == "coordinate"
+    while done + len(buf_x) < n:
+        i = done + len(buf_x)
+        c = i % params["chains"]
+        if d:
+            bad = har_steps(H, s0, W[c], states[c], params["thin"], coord)
+            if bad > params["thin"] // 2:
+                raise NumericalError("hit-and-run: most chords degenerate; S is (numerically) "
+                                     "flat in a direction the analysis kept")
+        x = xc + T @ W[c]
+        v = problem.violation(x)
+        if not v <= MAX_VIOLATION:
+            raise NumericalError(f"hit-and-run sample {i} violates S by {v:.3e} x <Fn> "
+                                 f"(> {MAX_VIOLATION})")
+        buf_x.append(x)
+        buf_c.append(c)
+        buf_v.append(v)
+        if bar is not None:
+            bar.update(1)
+        last = done + len(buf_x) >= n
+        timeout = max_seconds is not None and time.perf_counter() - t0 > max_seconds
+        if len(buf_x) >= checkpoint_every or last or timeout:
+            done = ef.append(out, np.array(buf_x), buf_c, buf_v, {"w": W, "rng": states},
+                             {"n_done": done + len(buf_x), "steps_per_sample": params["thin"]})
+            buf_x, buf_c, buf_v = [], [], []
+            if timeout:
+                break
+    if bar is not None:
+        bar.close()
+    ens = ef.read(out)
+    diag = diagnostics(ens.samples, ens.chains, params["seed"])
+    return {"n_samples": ens.n_samples, "dim_S": d, "wall_time_s": time.perf_counter() - t0,
+            "max_violation": float(ens.violations.max(initial=0.0)), "params": params,
+            **diag}
+
+
+def load_params(path) -> dict:
+    return json.loads(ef.read(path, samples=False).attrs["params"])

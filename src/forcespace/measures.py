@@ -1,0 +1,223 @@
+"""Measures of the force ensemble: eta, indeterminacy structure, difference fields.
+
+Samples are arrays (k, 2m) in problem column order (statics.py): columns
+2j, 2j+1 are fn, ft of unknown contact j [F0].
+
+eta (the paper's force ambiguity, Eq. 2), exactly:
+    F_i = (fn_i, ft_i) the force vector of contact i (the frame is fixed per
+    contact, so |.| is the Euclidean vector norm),
+    dF_i^2 = mean over samples of |F_i - mean_samples(F_i)|^2,
+    |F_i|  = mean over samples of |F_i|,
+    eta = mean_i dF_i / mean_i |F_i|,
+with i running over all unknown contacts of the problem (the contacts of the
+slice whose forces are sampled; fixed boundary loads are not included).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from .errors import InputError
+
+
+def _check(samples):
+    X = np.asarray(samples, float)
+    if X.ndim != 2 or X.shape[1] % 2 or X.shape[0] < 1:
+        raise InputError("samples", "shape", "must be (k >= 1, 2m)", got=X.shape)
+    if not np.all(np.isfinite(X)):
+        raise InputError("samples", "values", "must be finite (found NaN/inf)")
+    return X
+
+
+def contact_fluctuations(samples):
+    """(dF (m,), mean |F| (m,)) as defined in the module docstring [F0]."""
+    X = _check(samples)
+    k, m2 = X.shape
+    F = X.reshape(k, m2 // 2, 2)
+    dev = F - F.mean(0)
+    dF = np.sqrt((dev ** 2).sum(2).mean(0))
+    mag = np.sqrt((F ** 2).sum(2)).mean(0)
+    return dF, mag
+
+
+def eta(samples) -> float:
+    """The force ambiguity eta = <dF> / <|F|> (module docstring)."""
+    dF, mag = contact_fluctuations(samples)
+    den = mag.mean()
+    if den == 0:
+        raise InputError("samples", "forces", "all forces are zero; eta undefined")
+    return float(dF.mean() / den)
+
+
+def distance_from_centre(samples, x0):
+    """Fig. 3 distances: the centre is the mean of the samples.
+
+    Returns (l (k,), l0, lbar): distances of the samples and of x0 (the jammed
+    state) from the centre [F0], and the mean sample distance lbar.
+    """
+    X = _check(samples)
+    c = X.mean(0)
+    ell = np.linalg.norm(X - c, axis=1)
+    l0 = float(np.linalg.norm(np.asarray(x0, float) - c))
+    return ell, l0, float(ell.mean())
+
+
+def coordination(packing, problem=None, rel_threshold: float = 1e-9) -> float:
+    """z (Packing.coordination convention: 2 Nc / n over non-rattlers, walls count)."""
+    return float(packing.coordination(rel_threshold))
+
+
+# ----------------------------------------------------------------------------
+# indeterminacy structure
+# ----------------------------------------------------------------------------
+@dataclass
+class Domain:
+    """An independent domain of indeterminacy.
+
+    contacts: problem contact indices whose force varies in it; disks: packing
+    disk indices touched (interior ones); dim: its number of degrees of
+    freedom; elementary: dim == 1 (a single circuit: irreducible).
+    """
+
+    contacts: np.ndarray
+    disks: np.ndarray
+    dim: int
+    elementary: bool
+
+
+def _rref_pivots(M, tol):
+    """Pivot columns and the reduced row echelon form of M (d, q) (partial pivoting)."""
+    R = np.array(M, float)
+    d, q = R.shape
+    piv = []
+    row = 0
+    for col in range(q):
+        if row >= d:
+            break
+        best = row + int(np.argmax(np.abs(R[row:, col])))
+        if abs(R[best, col]) <= tol:
+            continue
+        R[[row, best]] = R[[best, row]]
+        R[row] /= R[row, col]
+        others = np.arange(d) != row
+        R[others] -= np.outer(R[others, col], R[row])
+        piv.append(col)
+        row += 1
+    return np.array(piv, dtype=np.int64), R[:row]
+
+
+def domains(problem, analysis, tol: float = 1e-9) -> list[Domain]:
+    """Independent domains of indeterminacy of S and their dimensions.
+
+    The directions in which a force network can move inside S form the null
+    space of the equality system of the affine hull of S (equilibrium, fixed
+    columns and the implicit equalities: sliding and zero contacts). Its
+    minimal supports are the circuits of a matroid on the columns; the
+    matroid's connected components are read from the fundamental circuits
+    (rows of the RREF of the null basis): two columns are connected if they
+    share a fundamental circuit. Components are merged when they share a
+    contact (fn and ft of one contact); a domain's dimension is the number of
+    fundamental circuits it holds. Domains of dimension 1 are single circuits,
+    i.e. supports of a minimal self-stress: the paper's elementary clusters.
+    """
+    N = analysis.affine_basis
+    if N is None or N.shape[1] == 0:
+        return []
+    d = N.shape[1]
+    piv, R = _rref_pivots(N.T, tol * np.abs(N).max())
+    if piv.size != d:
+        raise InputError("domains", "null basis", "numerically rank deficient")
+    m = problem.n_contacts
+    support = np.abs(R) > tol * max(np.abs(R).max(), 1e-300)
+    # union-find over contacts
+    parent = np.arange(m)
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    row_contacts = []
+    for r in range(d):
+        cs = np.unique(np.flatnonzero(support[r]) // 2)
+        row_contacts.append(cs)
+        for c in cs[1:]:
+            ra, rb = find(cs[0]), find(c)
+            if ra != rb:
+                parent[rb] = ra
+    groups = {}
+    for r, cs in enumerate(row_contacts):
+        root = find(cs[0])
+        g = groups.setdefault(root, [set(), 0])
+        g[0].update(cs.tolist())
+        g[1] += 1
+    out = []
+    for root, (cs, dim) in groups.items():
+        cs = np.array(sorted(cs), dtype=np.int64)
+        bodies = np.concatenate([problem.ka[cs], problem.kb[cs]])
+        bodies = np.unique(bodies[bodies < problem.n_interior])
+        out.append(Domain(contacts=cs, disks=problem.disks[bodies], dim=int(dim),
+                          elementary=dim == 1))
+    out.sort(key=lambda g: (-g.dim, -g.contacts.size))
+    return out
+
+
+def varying_contacts(analysis, tol: float = 1e-9) -> np.ndarray:
+    """Problem contact indices whose force can change within S."""
+    N = analysis.affine_basis
+    if N is None or N.shape[1] == 0:
+        return np.zeros(0, dtype=np.int64)
+    row = np.linalg.norm(N, axis=1)
+    per = np.sqrt(row[0::2] ** 2 + row[1::2] ** 2)
+    return np.flatnonzero(per > tol)
+
+
+def difference_field(packing, problem, x1, x2) -> dict:
+    """The difference of two admissible networks as a drawable field.
+
+    Returns arrays per unknown contact j: ``segments`` (m, 2, 2) the line from
+    the centre of body a to the centre of body b (periodic image applied;
+    walls: the contact point) [R], ``point`` (m, 2) contact point [R],
+    ``dfn``, ``dft`` (m,) the differences x2 - x1 [F0] and ``dF`` (m, 2) the
+    force difference vector on b [F0].
+    """
+    x1 = np.asarray(x1, float)
+    x2 = np.asarray(x2, float)
+    k = problem.contacts
+    dx = x2 - x1
+    dfn, dft = dx[0::2], dx[1::2]
+    n = packing.normal[k]
+    t = np.stack([-n[:, 1], n[:, 0]], axis=1)
+    pt = packing.point[k]
+    seg = np.empty((k.size, 2, 2))
+    for q, c in enumerate(k):
+        a, b = packing.a[c], packing.b[c]
+        pa = np.array([packing.x[a], packing.y[a]]) if a >= 0 else pt[q]
+        pb = np.array([packing.x[b] + packing.image[c] * packing.width, packing.y[b]]) \
+            if b >= 0 else pt[q]
+        seg[q] = (pa, pb)
+    return {"segments": seg, "point": pt, "dfn": dfn, "dft": dft,
+            "dF": dfn[:, None] * n + dft[:, None] * t}
+
+
+def summary(problem, analysis, samples=None, packing=None) -> dict:
+    """Numbers for reports: dims, sliding, domains, eta and Fig.-3 distance."""
+    doms = domains(problem, analysis) if analysis.feasible and analysis.dim_S else []
+    out = {"n_interior": problem.n_interior, "n_contacts": problem.n_contacts,
+           "degree_of_indeterminacy": analysis.degree_of_indeterminacy,
+           "dim_S": analysis.dim_S, "bounded": analysis.bounded, "feasible": analysis.feasible,
+           "n_sliding": analysis.n_sliding, "n_zero_force": analysis.n_zero,
+           "n_domains": len(doms), "domain_dims": [g.dim for g in doms],
+           "n_elementary_clusters": int(sum(g.elementary for g in doms)),
+           "n_varying_contacts": int(varying_contacts(analysis).size) if analysis.feasible else 0}
+    if packing is not None:
+        out["z"] = coordination(packing)
+    if samples is not None and len(samples):
+        out["eta"] = eta(samples)
+        ell, l0, lbar = distance_from_centre(samples, problem.x_jammed)
+        out["jammed_distance_from_centre"] = l0
+        out["mean_sample_distance_from_centre"] = lbar
+    return out

@@ -1,0 +1,483 @@
+"""Exact analysis of the force ensemble S with linear programming (HiGHS).
+
+S = {x : A x = b, x_fixed = 0, G x <= 0} (see statics.py for the columns and
+rows). Every question here is answered by LPs solved with
+``scipy.optimize.linprog(method="highs")``; the Euclidean projection onto S is a
+convex QP solved with the HiGHS QP solver bundled inside scipy and then
+*polished and verified* by an exact active-set step (see :func:`distance_to_S`).
+
+Tolerances are relative to ``problem.force_scale`` (<Fn>, the mean jammed
+normal force over the unknown contacts): an inequality is "tight everywhere"
+(an implicit equality) when no point of S has slack larger than
+``tol * force_scale``; default tol = 1e-9.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+from scipy.optimize import linprog, lsq_linear
+
+from .errors import InputError, NumericalError
+from .statics import StaticsProblem
+
+TOL = 1e-9
+
+
+# ----------------------------------------------------------------------------
+# LP helpers
+# ----------------------------------------------------------------------------
+def _lp(c, A_ub=None, b_ub=None, A_eq=None, b_eq=None, bounds=None):
+    res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds,
+                  method="highs")
+    return res
+
+
+def _bounds_list(lo, hi):
+    return list(zip([None if not np.isfinite(v) else v for v in lo],
+                    [None if not np.isfinite(v) else v for v in hi]))
+
+
+def _eq_system(problem: StaticsProblem, extra_rows=None):
+    """Equality matrix [A; fixed columns; extra] as CSR and its rhs."""
+    m2 = problem.n_columns
+    fixed = problem.fixed_columns()
+    F = sp.csr_matrix((np.ones(fixed.size), (np.arange(fixed.size), fixed)),
+                      shape=(fixed.size, m2))
+    blocks = [problem.A, F]
+    rhs = [problem.b, np.zeros(fixed.size)]
+    if extra_rows is not None and extra_rows.shape[0]:
+        blocks.append(extra_rows)
+        rhs.append(np.zeros(extra_rows.shape[0]))
+    return sp.vstack(blocks).tocsr(), np.concatenate(rhs)
+
+
+def _rank(M, tol_rel=1e-10) -> int:
+    M = M.toarray() if sp.issparse(M) else np.asarray(M)
+    if M.size == 0:
+        return 0
+    s = np.linalg.svd(M, compute_uv=False)
+    return int((s > tol_rel * max(s[0], 1e-300) * max(M.shape)).sum()) if s.size else 0
+
+
+def null_basis(M, tol_rel=1e-10) -> np.ndarray:
+    """Orthonormal basis (ncol, d) of the null space of M (dense SVD)."""
+    M = M.toarray() if sp.issparse(M) else np.asarray(M)
+    if M.shape[0] == 0:
+        return np.eye(M.shape[1])
+    u, s, vt = np.linalg.svd(M, full_matrices=True)
+    rank = int((s > tol_rel * max(s[0], 1e-300) * max(M.shape)).sum()) if s.size else 0
+    return vt[rank:].T.copy()
+
+
+# ----------------------------------------------------------------------------
+# Results
+# ----------------------------------------------------------------------------
+@dataclass
+class PolytopeAnalysis:
+    """Exact facts about S. Arrays indexed by problem contact j (0..m-1) unless stated.
+
+    fn_range, ft_range: (m, 2) min and max of fn, ft over S [F0] (NaN if S is
+    unbounded or infeasible, or ranges were not requested).
+    implicit: list of (contact j, kind) inequalities tight on all of S; kind
+    "slides+" (ft = +mu fn), "slides-" (ft = -mu fn), "zero" (fn = ft = 0).
+    centre: Chebyshev centre of S inside its affine hull (2m,) [F0], with radius.
+    affine_point, affine_basis: S lies in {affine_point + affine_basis @ y},
+    affine_basis (2m, dim_S) orthonormal.
+    """
+
+    feasible: bool
+    bounded: bool | None
+    n_interior: int
+    n_contacts: int
+    n_unknowns: int                 # free columns: 2m minus fixed ft of mu=0 contacts
+    rank_A: int
+    full_row_rank: bool
+    degree_of_indeterminacy: int    # n_unknowns - rank([A; fixed])
+    dim_S: int | None
+    n_sliding: int | None
+    n_zero: int | None
+    implicit: list = field(default_factory=list)
+    sliding_contacts: np.ndarray | None = None
+    zero_contacts: np.ndarray | None = None
+    fn_range: np.ndarray | None = None
+    ft_range: np.ndarray | None = None
+    centre: np.ndarray | None = None
+    centre_radius: float | None = None
+    max_sum_fn: float | None = None
+    recession_direction: np.ndarray | None = None
+    infeasibility: dict | None = None
+    affine_point: np.ndarray | None = None
+    affine_basis: np.ndarray | None = None
+    implicit_rows: np.ndarray | None = None   # indices into problem.inequalities() rows
+    force_scale: float = 1.0
+
+    def summary(self) -> dict:
+        d = {"feasible": self.feasible, "bounded": self.bounded,
+             "n_interior": self.n_interior, "n_contacts": self.n_contacts,
+             "n_unknowns": self.n_unknowns, "rank_A": self.rank_A,
+             "full_row_rank": self.full_row_rank,
+             "degree_of_indeterminacy": self.degree_of_indeterminacy,
+             "dim_S": self.dim_S, "n_sliding": self.n_sliding, "n_zero_force": self.n_zero,
+             "max_sum_fn": self.max_sum_fn, "force_scale": self.force_scale,
+             "centre_radius": self.centre_radius}
+        if self.infeasibility is not None:
+            d["infeasibility"] = self.infeasibility
+        if self.recession_direction is not None:
+            rd = self.recession_direction
+            d["recession_direction_support"] = int((np.abs(rd) > 1e-9 * np.abs(rd).max()).sum())
+        return d
+
+
+@dataclass
+class DistanceResult:
+    """Euclidean distance from a force vector x to S.
+
+    absolute = ||nearest - x||_2 [F0]; relative = absolute / (<Fn> sqrt(m)) with
+    <Fn> = problem.force_scale and m the number of unknown contacts, i.e. the
+    rms per-contact distance in units of the mean normal force.
+    nearest (2m,) is the exact projection (verified KKT point); kkt_residual
+    and max_violation (relative to <Fn>) report the verification.
+    """
+
+    absolute: float
+    relative: float
+    nearest: np.ndarray
+    max_violation: float
+    kkt_residual: float
+    method: str
+
+
+# ----------------------------------------------------------------------------
+# Analysis
+# ----------------------------------------------------------------------------
+def check_feasible(problem: StaticsProblem):
+    """(feasible, x or None, diagnosis or None).
+
+    When infeasible, an L1 relaxation of the equilibrium rows (minimum total
+    imbalance) names the disks that cannot be balanced and by how much.
+    """
+    G, _, _ = problem.inequalities()
+    lo, hi = problem.bounds()
+    bnds = _bounds_list(lo, hi)
+    m2 = problem.n_columns
+    res = _lp(np.zeros(m2), G, np.zeros(G.shape[0]), problem.A, problem.b, bnds)
+    if res.status == 0:
+        return True, res.x, None
+    if res.status != 2:
+        raise NumericalError(f"feasibility LP failed: {res.message}")
+    # relaxation: A x + s+ - s- = b, minimise sum s
+    nr = problem.A.shape[0]
+    I = sp.identity(nr, format="csr")
+    Aeq = sp.hstack([problem.A, I, -I]).tocsr()
+    Gr = sp.hstack([G, sp.csr_matrix((G.shape[0], 2 * nr))]).tocsr()
+    c = np.concatenate([np.zeros(m2), np.ones(2 * nr)])
+    r2 = _lp(c, Gr, np.zeros(G.shape[0]), Aeq, problem.b, bnds + [(0, None)] * (2 * nr))
+    if r2.status != 0:
+        raise NumericalError(f"infeasibility diagnosis LP failed: {r2.message}")
+    s = r2.x[m2:m2 + nr] - r2.x[m2 + nr:]
+    bad = np.flatnonzero(np.abs(s) > TOL * problem.force_scale)
+    disks = sorted({int(problem.disks[i // 3]) for i in bad})
+    comp = {0: "fx", 1: "fy", 2: "torque/r"}
+    worst = [{"disk": int(problem.disks[i // 3]), "row": comp[i % 3],
+              "imbalance": float(s[i])} for i in bad[np.argsort(-np.abs(s[bad]))][:10]]
+    return False, None, {"min_total_imbalance": float(r2.fun),
+                         "relative_to_mean_force": float(r2.fun / problem.force_scale),
+                         "unbalanced_disks": disks, "worst_rows": worst,
+                         "reason": "no force network satisfies equilibrium and Coulomb; the "
+                                   "listed disks need the smallest extra loads"}
+
+
+def check_bounded(problem: StaticsProblem):
+    """(bounded, max sum fn or inf, recession direction or None).
+
+    S is bounded iff its recession cone {A d = 0, G d <= 0} is {0}; since the
+    Coulomb cones are pointed, it suffices to maximise sum(d_fn) <= 1 over the
+    cone: optimum 0 -> bounded, 1 -> unbounded with recession direction d.
+    """
+    G, _, _ = problem.inequalities()
+    lo, hi = problem.bounds()
+    m2 = problem.n_columns
+    c = np.zeros(m2)
+    c[0::2] = -1.0
+    Aub = sp.vstack([G, sp.csr_matrix(-c)]).tocsr()
+    bub = np.concatenate([np.zeros(G.shape[0]), [1.0]])
+    res = _lp(c, Aub, bub, problem.A, np.zeros(problem.A.shape[0]), _bounds_list(lo, hi))
+    if res.status != 0:
+        raise NumericalError(f"recession-cone LP failed: {res.message}")
+    if -res.fun > 1e-7:
+        return False, np.inf, res.x / max(np.abs(res.x).max(), 1e-300)
+    r2 = _lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, _bounds_list(lo, hi))
+    if r2.status != 0:
+        raise NumericalError(f"max sum fn LP failed: {r2.message}")
+    return True, float(-r2.fun), None
+
+
+def implicit_equalities(problem: StaticsProblem, tol: float = TOL):
+    """Indices of inequality rows of ``problem.inequalities()`` tight on all of S.
+
+    Iterative slack LP (Fukuda's FAQ): maximise sum of slacks s_j in
+    [0, <Fn>] over the undecided rows; rows with s_j > tol*<Fn> are proven
+    strict somewhere; stop when the optimum is 0 (the rest are implicit).
+    """
+    G, _, _ = problem.inequalities()
+    p = G.shape[0]
+    lo, hi = problem.bounds()
+    m2 = problem.n_columns
+    scale = problem.force_scale
+    undecided = np.ones(p, dtype=bool)
+    thresh = tol * scale
+    while undecided.any():
+        idx = np.flatnonzero(undecided)
+        q = idx.size
+        S = sp.csr_matrix((np.ones(q), (idx, np.arange(q))), shape=(p, q))
+        Aub = sp.hstack([G, S]).tocsr()
+        c = np.concatenate([np.zeros(m2), -np.ones(q)])
+        res = _lp(c, Aub, np.zeros(p), sp.hstack([problem.A, sp.csr_matrix((problem.A.shape[0], q))]),
+                  problem.b, _bounds_list(lo, hi) + [(0.0, scale)] * q)
+        if res.status != 0:
+            raise NumericalError(f"implicit-equality LP failed: {res.message}")
+        slack = -(G @ res.x[:m2])
+        strict = idx[slack[idx] > thresh]
+        if strict.size == 0:
+            break
+        undecided[strict] = False
+    return np.flatnonzero(undecided)
+
+
+def analyze(problem: StaticsProblem, ranges: bool = True, centre: bool = True,
+            tol: float = TOL) -> PolytopeAnalysis:
+    """Feasibility, boundedness, implicit equalities, dimensions, ranges, centre of S."""
+    m = problem.n_contacts
+    m2 = problem.n_columns
+    n_fixed = problem.fixed_columns().size
+    n_unknowns = m2 - n_fixed
+    rank_A = _rank(problem.A)
+    Eq0, _ = _eq_system(problem)
+    doi = m2 - _rank(Eq0)
+    out = PolytopeAnalysis(
+        feasible=False, bounded=None, n_interior=problem.n_interior, n_contacts=m,
+        n_unknowns=n_unknowns, rank_A=rank_A, full_row_rank=rank_A == problem.A.shape[0],
+        degree_of_indeterminacy=doi, dim_S=None, n_sliding=None, n_zero=None,
+        force_scale=problem.force_scale)
+    if m == 0:
+        raise InputError(problem.source or "problem", "contacts", "no unknown contact in the problem")
+    feas, x0, diag = check_feasible(problem)
+    if not feas:
+        out.infeasibility = diag
+        return out
+    out.feasible = True
+    bounded, msum, rdir = check_bounded(problem)
+    out.bounded, out.max_sum_fn, out.recession_direction = bounded, msum, rdir
+
+    G, owner, kind = problem.inequalities()
+    imp = implicit_equalities(problem, tol)
+    out.implicit_rows = imp
+    Eq, rhs = _eq_system(problem, G[imp])
+    # one point of S and the affine hull
+    N = null_basis(Eq)
+    out.dim_S = int(N.shape[1])
+    # project x0 onto the affine hull (removes LP round-off along the equalities)
+    xa = x0 - sla.lstsq(Eq.toarray(), Eq @ x0 - rhs)[0]
+    out.affine_point, out.affine_basis = xa, N
+    # classify implicit equalities per contact
+    imp_set = {}
+    for r in imp:
+        imp_set.setdefault(int(owner[r]), set()).add(int(kind[r]))
+    sliding, zero = [], []
+    for j, kinds in imp_set.items():
+        if 2 in kinds or kinds == {0, 1}:
+            zero.append(j)
+            out.implicit.append((j, "zero"))
+        else:
+            sliding.append(j)
+            out.implicit.append((j, "slides+" if 0 in kinds else "slides-"))
+    out.sliding_contacts = np.array(sorted(sliding), dtype=np.int64)
+    out.zero_contacts = np.array(sorted(zero), dtype=np.int64)
+    out.n_sliding, out.n_zero = len(sliding), len(zero)
+
+    if bounded and ranges:
+        out.fn_range, out.ft_range = column_ranges(problem, N, xa)
+    if bounded and centre:
+        out.centre, out.centre_radius = chebyshev_centre(problem, N, imp)
+    return out
+
+
+def column_ranges(problem: StaticsProblem, N=None, xa=None):
+    """Min and max of every column over S: (fn_range, ft_range), each (m, 2).
+
+    Columns that do not move within the affine hull (zero rows of N) are
+    constant and are not solved for.
+    """
+    G, _, _ = problem.inequalities()
+    lo, hi = problem.bounds()
+    bnds = _bounds_list(lo, hi)
+    m2 = problem.n_columns
+    rng = np.empty((m2, 2))
+    moving = np.ones(m2, dtype=bool) if N is None else np.linalg.norm(N, axis=1) > 1e-10
+    if xa is not None:
+        rng[~moving] = xa[~moving, None]
+    for col in np.flatnonzero(moving):
+        for side, sgn in ((0, 1.0), (1, -1.0)):
+            c = np.zeros(m2)
+            c[col] = sgn
+            res = _lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, bnds)
+            if res.status != 0:
+                raise NumericalError(f"range LP for column {col} failed: {res.message}")
+            rng[col, side] = res.x[col]
+    return rng[0::2].copy(), rng[1::2].copy()
+
+
+def chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
+    """Centre of the largest ball inside S within its affine hull: (x (2m,), radius [F0]).
+
+    Rows that are implicit equalities are kept as equalities; for the others
+    g.x + r ||P g|| <= 0 with P the projector onto the affine hull's directions.
+    """
+    G, _, _ = problem.inequalities()
+    if implicit_rows is None:
+        implicit_rows = implicit_equalities(problem)
+    Eq, rhs = _eq_system(problem, G[implicit_rows])
+    if N is None:
+        N = null_basis(Eq)
+    lo, hi = problem.bounds()
+    m2 = problem.n_columns
+    free = np.setdiff1d(np.arange(G.shape[0]), implicit_rows)
+    Gf = G[free]
+    w = np.linalg.norm((Gf @ N), axis=1) if N.shape[1] else np.zeros(free.size)
+    Aub = sp.hstack([Gf, sp.csr_matrix(w[:, None])]).tocsr()
+    Aeq = sp.hstack([Eq, sp.csr_matrix((Eq.shape[0], 1))]).tocsr()
+    c = np.zeros(m2 + 1)
+    c[-1] = -1.0
+    res = _lp(c, Aub, np.zeros(free.size), Aeq, rhs,
+              _bounds_list(lo, hi) + [(0.0, 10.0 * problem.force_scale * max(1, m2))])
+    if res.status != 0:
+        raise NumericalError(f"Chebyshev-centre LP failed: {res.message}")
+    return res.x[:m2], float(res.x[-1])
+
+
+# ----------------------------------------------------------------------------
+# Euclidean projection
+# ----------------------------------------------------------------------------
+def _highs_qp(problem: StaticsProblem, xhat):
+    """min 1/2 ||x - xhat||^2 over S with HiGHS' QP solver (scipy's bundled copy)."""
+    from scipy.optimize._highspy import _core as hc  # bundled HiGHS >= 1.5 has QP
+
+    G, _, _ = problem.inequalities()
+    lo, hi = problem.bounds()
+    m2 = problem.n_columns
+    M = sp.vstack([problem.A, G]).tocsc()
+    M.sort_indices()
+    rlo = np.concatenate([problem.b, np.full(G.shape[0], -np.inf)])
+    rhi = np.concatenate([problem.b, np.zeros(G.shape[0])])
+    inf = hc.kHighsInf
+    lp = hc.HighsLp()
+    lp.num_col_ = m2
+    lp.num_row_ = M.shape[0]
+    lp.col_cost_ = -np.asarray(xhat, float)
+    lp.col_lower_ = np.where(np.isfinite(lo), lo, -inf)
+    lp.col_upper_ = np.where(np.isfinite(hi), hi, inf)
+    lp.row_lower_ = np.where(np.isfinite(rlo), rlo, -inf)
+    lp.row_upper_ = np.where(np.isfinite(rhi), rhi, inf)
+    lp.a_matrix_.format_ = hc.MatrixFormat.kColwise
+    lp.a_matrix_.start_ = M.indptr.astype(np.int32)
+    lp.a_matrix_.index_ = M.indices.astype(np.int32)
+    lp.a_matrix_.value_ = M.data.astype(float)
+    h = hc._Highs()
+    h.setOptionValue("output_flag", False)
+    h.passModel(lp)
+    hess = hc.HighsHessian()
+    hess.dim_ = m2
+    hess.format_ = hc.HessianFormat.kTriangular
+    hess.start_ = np.arange(m2 + 1, dtype=np.int32)
+    hess.index_ = np.arange(m2, dtype=np.int32)
+    hess.value_ = np.ones(m2)
+    h.passHessian(hess)
+    h.run()
+    status = h.modelStatusToString(h.getModelStatus())
+    if status != "Optimal":
+        raise NumericalError(f"HiGHS QP (projection onto S) ended with status {status}")
+    return np.array(h.getSolution().col_value)
+
+
+def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 50):
+    """Exact active-set refinement of an approximate projection ``x``.
+
+    Guess the active set from ``x`` (tight inequalities and bounds), solve the
+    equality-constrained projection exactly (least squares on the KKT system),
+    verify primal feasibility and multiplier signs; add the most violated /
+    drop the most negative constraint and repeat. Returns (x, kkt_residual, ok).
+    """
+    G, _, _ = problem.inequalities()
+    Gd = G.toarray()
+    Ad = problem.A.toarray()
+    fixed = problem.fixed_columns()
+    m2 = problem.n_columns
+    E_fix = np.zeros((fixed.size, m2))
+    E_fix[np.arange(fixed.size), fixed] = 1.0
+    # fn >= 0 bounds of frictional contacts are implied by Coulomb; those of
+    # frictionless ones are rows of G already.
+    scale = problem.force_scale
+    act = np.flatnonzero(G @ x > -1e-7 * scale)
+    n_eq = Ad.shape[0] + fixed.size
+    best = (x, np.inf, False)
+    for _ in range(max_iter):
+        C = np.vstack([Ad, E_fix, Gd[act]])
+        c = np.concatenate([problem.b, np.zeros(fixed.size), np.zeros(act.size)])
+        # minimum-norm correction: x = xhat - delta, C delta = C xhat - c, delta in rowspace(C)
+        xn = xhat - sla.lstsq(C, C @ xhat - c, lapack_driver="gelsd")[0]
+        xn = xn - sla.lstsq(C, C @ xn - c, lapack_driver="gelsd")[0]
+        gx = Gd @ xn
+        viol = gx.max(initial=0.0)
+        if viol > 1e-11 * scale:
+            act = np.union1d(act, np.flatnonzero(gx > 1e-11 * scale))
+            best = (xn, np.inf, False)
+            continue
+        # multipliers: xhat - xn = C^T lam, lam >= 0 on the inequality part
+        lo = np.concatenate([np.full(n_eq, -np.inf), np.zeros(act.size)])
+        hi = np.full(n_eq + act.size, np.inf)
+        rhs = xhat - xn
+        res = lsq_linear(C.T, rhs, bounds=(lo, hi), method="bvls", tol=1e-14)
+        kkt = float(np.linalg.norm(C.T @ res.x - rhs) / max(np.linalg.norm(rhs), scale))
+        if kkt <= 1e-9:
+            return xn, kkt, True
+        free_lam = sla.lstsq(C.T, rhs, lapack_driver="gelsd")[0][n_eq:]
+        act = np.delete(act, int(np.argmin(free_lam)))
+        best = (xn, kkt, False)
+    return best
+
+
+def distance_to_S(problem: StaticsProblem, x, analysis: PolytopeAnalysis | None = None
+                  ) -> DistanceResult:
+    """Exact Euclidean distance from ``x`` (2m,) to S (see :class:`DistanceResult`).
+
+    Method: HiGHS QP (bundled in scipy) for a near-optimal point, then an exact
+    active-set polish whose KKT conditions are verified (feasibility to round-off,
+    multipliers >= 0). Raises NumericalError if the verification fails, InputError
+    for a wrong-shaped or non-finite x, and refuses an infeasible S.
+    """
+    x = np.asarray(x, float)
+    if x.shape != (problem.n_columns,) or not np.all(np.isfinite(x)):
+        raise InputError("distance_to_S", "x", f"must be a finite vector of shape "
+                         f"({problem.n_columns},)", got=getattr(x, "shape", None))
+    if analysis is not None and not analysis.feasible:
+        raise InputError("distance_to_S", "S", "is empty (infeasible); no distance")
+    try:
+        xq = _highs_qp(problem, x)
+        method = "highs-qp+active-set-polish"
+    except ImportError:  # pragma: no cover - scipy without the bundled HiGHS QP
+        feas, xq, _ = check_feasible(problem)
+        if not feas:
+            raise InputError("distance_to_S", "S", "is empty (infeasible); no distance") from None
+        method = "active-set-from-feasible-point"
+    xn, kkt, ok = _polish(problem, x, xq)
+    viol = problem.violation(xn)
+    if not ok or viol > 1e-9:
+        raise NumericalError(f"projection onto S could not be verified (kkt={kkt:.2e}, "
+                             f"violation={viol:.2e})")
+    d = float(np.linalg.norm(xn - x))
+    rel = d / (problem.force_scale * np.sqrt(problem.n_contacts))
+    return DistanceResult(absolute=d, relative=rel, nearest=xn, max_violation=viol,
+                          kkt_residual=kkt, method=method)

@@ -1,0 +1,349 @@
+"""Statics of a fixed packing: the linear problem whose solution set is S.
+
+Unknowns, equations and loads
+-----------------------------
+* Unknown columns: 2 per *unknown contact* j (problem order), ``x[2j] = fn``,
+  ``x[2j+1] = ft`` [F0], in the contact's own frame (packing.py conventions:
+  force ``fn*n + ft*t`` on body b, t = (-n_y, n_x), torque ``-r*ft`` on both disks).
+* Rows: 3 per *interior disk* i (problem order): ``3i`` net x force, ``3i+1``
+  net y force, ``3i+2`` net torque divided by the disk radius r_i (so every row
+  is in F0 and equally scaled). ``A @ x = b`` with ``b = -(fixed loads)``:
+  the fixed loads are body forces (gravity) plus the forces and torques of the
+  contacts whose force is held fixed.
+* Coulomb: for mu_j > 0, ``ft - mu fn <= 0`` and ``-ft - mu fn <= 0`` (they
+  imply fn >= 0). For mu_j = 0, ``ft = 0`` (the column is *fixed*, not an
+  unknown degree of freedom) and ``-fn <= 0``.
+
+Slice problem (the paper's): interior disks are the non-rattler disks whose
+centres lie in the horizontal band ``|y - y_c| <= height/2``, y_c the middle
+between the plates (or of the disk centres without plates). A contact between
+two interior disks is unknown; a contact of an interior disk with anything
+else (outside disk or wall) is a fixed load carrying its packing force.
+
+Full problem: interior disks are all non-rattlers; contacts with BOTTOM (and
+LEFT/RIGHT, when present) are unknowns (supports, their mu is ``plate_mu``);
+contacts with TOP are fixed loads (its plate force is prescribed).
+
+Rattler convention: ``Packing.rattlers()`` (fewer than 3 (mu=0) or 2 (mu>0)
+force-bearing contacts, iterated) decides. A rattler is never interior: its
+3 rows are absent and every contact touching it is dropped entirely (neither
+unknown nor load: its force is 0 in the jammed state by construction). The
+dropped rattlers are listed in ``StaticsProblem.rattlers``. Contacts whose
+gap exceeds ``gap_tol`` [R] are not contacts (open) and are dropped as well.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from .errors import InputError
+from .packing import BOTTOM, LEFT, RIGHT, TOP, Packing
+
+
+@dataclass
+class StaticsProblem:
+    """The linear statics problem of an interior set of disks.
+
+    Shapes: n = interior disks, m = unknown contacts.
+    A (3n, 2m) sparse CSR, b (3n,) [F0]; mu (m,); contacts (m,) packing
+    contact indices of the unknown columns; disks (n,) packing disk indices.
+    Kernel data for the NLGS relaxation: ``ka, kb`` (m,) body indices (interior
+    disks 0..n-1, then fixed supports n..), ``nx, ny, ra, rb`` (m,);
+    ``mass, radius`` (n,); ``load_force`` (n, 2), ``load_torque`` (n,) [F0, F0 R].
+    """
+
+    kind: str                  # "slice" or "full"
+    height: float | None       # slice height [R] (None for full)
+    A: sp.csr_matrix
+    b: np.ndarray
+    mu: np.ndarray
+    contacts: np.ndarray
+    disks: np.ndarray
+    rattlers: np.ndarray       # packing indices of rattlers excluded from the problem
+    load_contacts: np.ndarray  # packing indices of contacts held as fixed loads
+    x_jammed: np.ndarray       # packing forces in column order (2m,)
+    force_scale: float         # <Fn>: mean jammed fn over unknown contacts with fn > 0 [F0]
+    ka: np.ndarray
+    kb: np.ndarray
+    nx: np.ndarray
+    ny: np.ndarray
+    ra: np.ndarray
+    rb: np.ndarray
+    mass: np.ndarray
+    radius: np.ndarray
+    load_force: np.ndarray
+    load_torque: np.ndarray
+    n_supports: int = 0        # number of fixed kernel bodies after the disks (walls, support disks)
+    source: str = ""
+    meta: dict = field(default_factory=dict)
+
+    # ---- sizes ------------------------------------------------------------
+    @property
+    def n_interior(self) -> int:
+        return int(self.disks.shape[0])
+
+    @property
+    def n_contacts(self) -> int:
+        return int(self.contacts.shape[0])
+
+    @property
+    def n_columns(self) -> int:
+        return 2 * self.n_contacts
+
+    # ---- column maps --------------------------------------------------------
+    def forces_from_packing(self, fn, ft) -> np.ndarray:
+        """Packing-indexed forces (Nc,), (Nc,) -> problem vector x (2m,)."""
+        fn = np.asarray(fn, float)
+        ft = np.asarray(ft, float)
+        x = np.empty(self.n_columns)
+        x[0::2] = fn[self.contacts]
+        x[1::2] = ft[self.contacts]
+        return x
+
+    def to_packing_forces(self, x, base_fn=None, base_ft=None):
+        """Problem vector x (2m,) -> packing-indexed (fn, ft), each (Nc,).
+
+        Contacts that are not unknowns keep ``base_fn/base_ft`` (default: the
+        jammed forces of the packing this problem was built from; loads keep
+        their fixed values, dropped contacts theirs).
+        """
+        x = np.asarray(x, float)
+        if x.shape != (self.n_columns,):
+            raise InputError("forces", "x", f"must have shape ({self.n_columns},)", got=x.shape)
+        fn = np.array(self.meta["packing_fn"] if base_fn is None else base_fn, float)
+        ft = np.array(self.meta["packing_ft"] if base_ft is None else base_ft, float)
+        fn[self.contacts] = x[0::2]
+        ft[self.contacts] = x[1::2]
+        return fn, ft
+
+    # ---- constraints --------------------------------------------------------
+    def fixed_columns(self) -> np.ndarray:
+        """Indices of columns held at 0 by definition (ft of frictionless contacts)."""
+        return 2 * np.flatnonzero(self.mu == 0.0) + 1
+
+    def inequalities(self):
+        """Inequalities ``G @ x <= 0``: G (p, 2m) CSR and their owners.
+
+        Returns (G, contact (p,), kind (p,)) with kind 0: ``ft - mu fn <= 0``,
+        1: ``-ft - mu fn <= 0`` (mu > 0), 2: ``-fn <= 0`` (mu = 0).
+        """
+        rows, cols, vals, owner, kind = [], [], [], [], []
+        p = 0
+        for j, mj in enumerate(self.mu):
+            if mj > 0.0:
+                for s, k in ((1.0, 0), (-1.0, 1)):
+                    rows += [p, p]
+                    cols += [2 * j, 2 * j + 1]
+                    vals += [-mj, s]
+                    owner.append(j)
+                    kind.append(k)
+                    p += 1
+            else:
+                rows.append(p)
+                cols.append(2 * j)
+                vals.append(-1.0)
+                owner.append(j)
+                kind.append(2)
+                p += 1
+        G = sp.csr_matrix((vals, (rows, cols)), shape=(p, self.n_columns))
+        return G, np.array(owner, dtype=np.int64), np.array(kind, dtype=np.int64)
+
+    def bounds(self):
+        """Column bounds for LPs: fn in [0, inf); ft free (mu>0) or [0, 0] (mu=0)."""
+        lo = np.full(self.n_columns, -np.inf)
+        hi = np.full(self.n_columns, np.inf)
+        lo[0::2] = 0.0
+        fixed = self.fixed_columns()
+        lo[fixed] = 0.0
+        hi[fixed] = 0.0
+        return lo, hi
+
+    def residuals(self, x):
+        """Equilibrium residual ``A x - b`` (3n,) and inequality values ``G x`` (p,) [F0]."""
+        x = np.asarray(x, float)
+        G, _, _ = self.inequalities()
+        return self.A @ x - self.b, G @ x
+
+    def violation(self, x) -> float:
+        """Largest violation of equilibrium, Coulomb, fn >= 0 and the fixed columns,
+        divided by ``force_scale`` (dimensionless)."""
+        x = np.asarray(x, float)
+        if x.shape != (self.n_columns,) or not np.all(np.isfinite(x)):
+            return float("inf")
+        eq, ineq = self.residuals(x)
+        v = max(np.abs(eq).max(initial=0.0), ineq.max(initial=0.0),
+                (-x[0::2]).max(initial=0.0), np.abs(x[self.fixed_columns()]).max(initial=0.0))
+        return float(v / self.force_scale)
+
+    def summary(self) -> dict:
+        return {"kind": self.kind, "height": self.height, "n_interior": self.n_interior,
+                "n_contacts": self.n_contacts, "n_rattlers_excluded": int(self.rattlers.size),
+                "n_load_contacts": int(self.load_contacts.size),
+                "force_scale": self.force_scale}
+
+
+def _centre_y(p: Packing) -> float:
+    if np.isfinite(p.y_bottom) and np.isfinite(p.y_top):
+        return 0.5 * (p.y_bottom + p.y_top)
+    return 0.5 * (p.y.min() + p.y.max())
+
+
+def _check(p: Packing, source):
+    for name in ("x", "y", "r", "normal", "fn", "ft"):
+        arr = np.asarray(getattr(p, name), float)
+        if not np.all(np.isfinite(arr)):
+            raise InputError(source, name, "must be finite (found NaN/inf)")
+    if p.n_disks == 0:
+        raise InputError(source, "disks", "packing has no disks")
+    if np.any(np.asarray(p.r) <= 0):
+        raise InputError(source, "r", "radii must be > 0")
+    if p.mu < 0 or p.plate_mu < 0:
+        raise InputError(source, "mu", "friction coefficients must be >= 0", got=(p.mu, p.plate_mu))
+
+
+def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
+                  gap_tol: float = np.inf, source: str = "", support_mask=None,
+                  rattlers=None) -> StaticsProblem:
+    """Assemble the problem for the interior disks given by ``interior_mask`` (n,).
+
+    ``unknown_walls``: wall codes whose contacts with interior disks are unknowns
+    (supports); contacts with other walls are fixed loads. ``support_mask`` (n,)
+    optionally marks non-interior disks that act as fixed supports as well
+    (their contacts with interior disks are unknowns, mu = packing mu).
+    ``rattlers`` (n,) overrides ``Packing.rattlers()`` (for hand-built systems).
+    """
+    _check(p, source or "packing")
+    rat = p.rattlers() if rattlers is None else np.asarray(rattlers, bool)
+    interior = np.asarray(interior_mask, bool) & ~rat
+    disks = np.flatnonzero(interior)
+    if disks.size == 0:
+        raise InputError(source or "packing", "interior", "no non-rattler disk in the chosen region")
+    local = -np.ones(p.n_disks, dtype=np.int64)
+    local[disks] = np.arange(disks.size)
+    n = disks.size
+
+    a = np.asarray(p.a, np.int64)
+    bb = np.asarray(p.b, np.int64)
+    closed = np.asarray(p.gap, float) <= gap_tol
+    is_int = lambda idx: (idx >= 0) & interior[np.maximum(idx, 0)]  # noqa: E731
+    is_rat = lambda idx: (idx >= 0) & rat[np.maximum(idx, 0)]  # noqa: E731
+    ia, ib = is_int(a), is_int(bb)
+    touches = (ia | ib) & closed & ~is_rat(a) & ~is_rat(bb)
+    wall_unknown = np.zeros_like(touches)
+    for w in unknown_walls:
+        wall_unknown |= (a == w) | (bb == w)
+    if support_mask is not None:
+        sup = np.asarray(support_mask, bool) & ~interior
+        is_sup = lambda idx: (idx >= 0) & sup[np.maximum(idx, 0)]  # noqa: E731
+        wall_unknown |= is_sup(a) | is_sup(bb)
+    unknown = touches & ((ia & ib) | (wall_unknown & (ia | ib)))
+    load = touches & ~unknown
+    contacts = np.flatnonzero(unknown)
+    m = contacts.size
+
+    mu = np.where((a[contacts] < 0) | (bb[contacts] < 0), p.plate_mu, p.mu).astype(float)
+    nrm = np.asarray(p.normal, float)
+    tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
+    r = np.asarray(p.r, float)
+
+    # ---- A ----
+    rows, cols, vals = [], [], []
+    for j, k in enumerate(contacts):
+        for body, sgn in ((bb[k], 1.0), (a[k], -1.0)):
+            if body < 0 or not interior[body]:
+                continue
+            i = local[body]
+            rows += [3 * i, 3 * i + 1, 3 * i, 3 * i + 1, 3 * i + 2]
+            cols += [2 * j, 2 * j, 2 * j + 1, 2 * j + 1, 2 * j + 1]
+            vals += [sgn * nrm[k, 0], sgn * nrm[k, 1], sgn * tng[k, 0], sgn * tng[k, 1], -1.0]
+    A = sp.csr_matrix((vals, (rows, cols)), shape=(3 * n, 2 * m))
+    A.sum_duplicates()
+
+    # ---- loads ----
+    load_force = p.external_forces()[disks].copy()
+    load_torque = np.zeros(n)
+    F = p.fn[:, None] * nrm + p.ft[:, None] * tng
+    for k in np.flatnonzero(load):
+        for body, sgn in ((bb[k], 1.0), (a[k], -1.0)):
+            if body >= 0 and interior[body]:
+                i = local[body]
+                load_force[i] += sgn * F[k]
+                load_torque[i] += -r[body] * p.ft[k]
+    bvec = np.empty(3 * n)
+    bvec[0::3] = -load_force[:, 0]
+    bvec[1::3] = -load_force[:, 1]
+    bvec[2::3] = -load_torque / r[disks]
+
+    # ---- consistency of the loads ----
+    # A x = b is solvable only if b lies in range(A); a jammed packing balances
+    # its loads only to the engine's tolerance, so b is replaced by its
+    # least-squares projection onto range(A) and the removed part is recorded
+    # (meta["load_inconsistency"], relative to the mean force).
+    b_raw = bvec.copy()
+    if A.shape[1]:
+        Ad = A.toarray()
+        sol = np.linalg.lstsq(Ad, bvec, rcond=None)[0]
+        bvec = Ad @ sol
+    else:
+        bvec = np.zeros_like(bvec)
+    inconsistency = float(np.abs(b_raw - bvec).max(initial=0.0))
+    load_force = np.column_stack([-bvec[0::3], -bvec[1::3]])
+    load_torque = -bvec[2::3] * r[disks]
+
+    # ---- kernel data ----
+    wall_codes = sorted({int(c) for c in np.concatenate([a[contacts], bb[contacts]])
+                         if c < 0 or not interior[c]}, key=lambda c: (c >= 0, -c if c < 0 else c))
+    wall_index = {c: n + q for q, c in enumerate(wall_codes)}
+    ka = np.array([wall_index.get(int(c), local[c] if c >= 0 else -1) for c in a[contacts]],
+                  dtype=np.int64)
+    kb = np.array([wall_index.get(int(c), local[c] if c >= 0 else -1) for c in bb[contacts]],
+                  dtype=np.int64)
+    ra = np.where(a[contacts] >= 0, r[np.maximum(a[contacts], 0)], 0.0)
+    rb = np.where(bb[contacts] >= 0, r[np.maximum(bb[contacts], 0)], 0.0)
+
+    x_j = np.empty(2 * m)
+    x_j[0::2] = p.fn[contacts]
+    x_j[1::2] = p.ft[contacts]
+    pos = p.fn[contacts][p.fn[contacts] > 0]
+    if pos.size:
+        scale = float(pos.mean())
+    else:
+        nz = np.abs(bvec[np.abs(bvec) > 0])
+        scale = float(nz.mean()) if nz.size else 1.0
+
+    return StaticsProblem(
+        kind=kind, height=height, A=A, b=bvec, mu=mu, contacts=contacts, disks=disks,
+        rattlers=np.flatnonzero(rat & np.asarray(interior_mask, bool)),
+        load_contacts=np.flatnonzero(load), x_jammed=x_j, force_scale=scale,
+        ka=ka, kb=kb, nx=nrm[contacts, 0].copy(), ny=nrm[contacts, 1].copy(),
+        ra=ra, rb=rb, mass=np.asarray(p.mass, float)[disks], radius=r[disks],
+        load_force=load_force, load_torque=load_torque, n_supports=len(wall_codes),
+        source=source,
+        meta={"load_inconsistency": inconsistency / scale, "b_raw": b_raw,
+              "packing_fn": np.asarray(p.fn, float).copy(),
+              "packing_ft": np.asarray(p.ft, float).copy(),
+              "wall_codes": wall_codes, "packing_mu": p.mu, "plate_mu": p.plate_mu,
+              "scene_name": p.scene_name})
+
+
+def slice_problem(packing: Packing, height: float, gap_tol: float = np.inf,
+                  source: str = "") -> StaticsProblem:
+    """The paper's slice: disks with |y - y_c| <= height/2 (see module docstring)."""
+    if not (np.isfinite(height) and height > 0):
+        raise InputError(source or "slice", "height", "must be a finite number > 0 [R]", got=height)
+    yc = _centre_y(packing)
+    mask = np.abs(np.asarray(packing.y, float) - yc) <= 0.5 * height
+    return build_problem(packing, mask, unknown_walls=(), kind="slice", height=float(height),
+                         gap_tol=gap_tol, source=source)
+
+
+def full_problem(packing: Packing, gap_tol: float = np.inf, source: str = "") -> StaticsProblem:
+    """All non-rattler disks; BOTTOM (and side walls) are supports, TOP forces are loads."""
+    mask = np.ones(packing.n_disks, dtype=bool)
+    return build_problem(packing, mask, unknown_walls=(BOTTOM, LEFT, RIGHT), kind="full",
+                         gap_tol=gap_tol, source=source)
+
+
+__all__ = ["StaticsProblem", "slice_problem", "full_problem", "build_problem", "TOP"]
