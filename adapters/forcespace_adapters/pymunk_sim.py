@@ -1,0 +1,314 @@
+"""pymunk 7 adapter: solve a packing's boundary-value problem with Chipmunk's rigid-body solver.
+
+Mapping (units are forcespace's: lengths R, forces F0, density rho):
+
+* every active disk -> dynamic body, mass rho*pi*r^2, moment m r^2/2, a
+  Circle shape; disk-disk friction mu (each circle gets sqrt(mu), pymunk
+  multiplies the two values); elasticity 0.
+* the BOTTOM plate (full packing) -> static segment at y_bottom; its friction
+  with the disks is set per arbiter in a pre-solve callback (= plate_mu).
+* fixed loads and torques (top-plate forces, gravity, slice boundary forces)
+  -> ``body.force``/``body.torque`` re-applied before every step (pymunk
+  resets them after each step); they ramp in linearly over ``ramp_steps``.
+* periodic x (pymunk has none): every disk within ``twin_margin`` of the left
+  edge gets a dynamic twin at x + width, tied to it inside the solver by two
+  pivot joints to a helper body of infinite moment (fixes the offset) and a
+  gear joint (equal rotation). Shape filters let twins touch real disks only
+  (not twins, not the floor), so every cross-boundary contact is seen once.
+* contact forces = ``arbiter.total_impulse / dt`` after a step; a contact
+  with a twin is a contact with image +1.
+
+Run until the largest per-disk residual sqrt(F^2 + (T/r)^2) (loads plus
+contact forces on a disk and its twin) is below ``tolerance * <Fn>`` or
+``max_steps`` is reached.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import pymunk
+
+from forcespace.errors import InputError
+from forcespace.packing import BOTTOM, TOP, Packing
+
+from .problem import SoftProblem
+
+REAL, TWIN, FLOOR = 0b001, 0b010, 0b100
+DISK_TYPE, FLOOR_TYPE = 1, 2
+
+
+@dataclass
+class PymunkOptions:
+    """Parameters of a pymunk run.
+
+    dt: time step in units of t0 = sqrt(m_min R / <Fn>) (the time a mean
+    contact force needs to move the lightest disk by R, roughly); iterations:
+    solver iterations per step; damping: fraction of velocity kept per t0;
+    slop: allowed overlap [R] before position correction; bias: fraction of
+    overlap left uncorrected after t0; tolerance: stop when the largest
+    per-disk residual < tolerance * <Fn>; ramp_steps, check_every, max_steps
+    in steps; twin_margin [R] beyond 2*r_max for twin creation.
+    """
+
+    dt: float = 0.01
+    iterations: int = 30
+    damping: float = 0.1
+    slop: float = 1e-5
+    bias: float = 1e-3
+    tolerance: float = 1e-6
+    ramp_steps: int = 200
+    check_every: int = 50
+    max_steps: int = 50_000
+    twin_margin: float = 2.0
+
+    def validate(self, source="options"):
+        checks = [("dt", self.dt > 0, "> 0"), ("iterations", self.iterations >= 1, ">= 1"),
+                  ("damping", 0 < self.damping <= 1, "in (0, 1]"),
+                  ("slop", self.slop >= 0, ">= 0"), ("bias", 0 < self.bias < 1, "in (0, 1)"),
+                  ("tolerance", self.tolerance > 0, "> 0"),
+                  ("ramp_steps", self.ramp_steps >= 1, ">= 1"),
+                  ("check_every", self.check_every >= 1, ">= 1"),
+                  ("max_steps", self.max_steps >= 1, ">= 1"),
+                  ("twin_margin", self.twin_margin >= 0, ">= 0")]
+        for name, ok, allowed in checks:
+            if not ok:
+                raise InputError(source, name, f"must be {allowed}", got=getattr(self, name))
+
+
+class PymunkScene:
+    """The pymunk space of a :class:`SoftProblem` plus the maps back to disk indices."""
+
+    def __init__(self, problem: SoftProblem, options: PymunkOptions | None = None,
+                 source="packing"):
+        opt = options or PymunkOptions()
+        opt.validate()
+        self.problem, self.opt = problem, opt
+        p = problem.packing
+        self.p = p
+        scale = problem.force_scale
+        self.t0 = float(np.sqrt(p.mass.min() * 1.0 / scale))
+        self.dt = opt.dt * self.t0
+        space = pymunk.Space()
+        space.iterations = int(opt.iterations)
+        space.damping = float(opt.damping ** (1.0 / self.t0))
+        space.collision_slop = float(opt.slop)
+        space.collision_bias = float(opt.bias ** (1.0 / self.t0))
+        space.gravity = (0.0, 0.0)
+        self.space = space
+        W = float(p.width)
+        self.W = W
+        mu = float(problem.mu)
+        fr = float(np.sqrt(mu))
+        self.disks = np.flatnonzero(problem.active)
+        self.body = {}
+        self.shape_owner = {}            # shape -> (disk index, image)
+        m = p.mass
+        x0 = np.mod(p.x, W) if p.periodic_x else p.x.copy()
+        for i in self.disks:
+            b = pymunk.Body(float(m[i]), float(0.5 * m[i] * p.r[i] ** 2))
+            b.position = (float(x0[i]), float(p.y[i]))
+            s = pymunk.Circle(b, float(p.r[i]))
+            s.friction = fr
+            s.elasticity = 0.0
+            s.collision_type = DISK_TYPE
+            s.filter = pymunk.ShapeFilter(categories=REAL, mask=REAL | TWIN | FLOOR)
+            space.add(b, s)
+            self.body[i] = b
+            self.shape_owner[s] = (int(i), 0)
+        self.twins = {}
+        if p.periodic_x:
+            lim = 2.0 * float(p.r.max()) + opt.twin_margin
+            if W < 2 * lim:
+                raise InputError(source, "box.width", f"too narrow for twin bodies (need > {2 * lim:g} R)",
+                                 got=W)
+            for i in self.disks:
+                if x0[i] < lim:
+                    ob = self.body[i]
+                    tb = pymunk.Body(ob.mass, ob.moment)
+                    tb.position = (ob.position.x + W, ob.position.y)
+                    ts = pymunk.Circle(tb, float(p.r[i]))
+                    ts.friction = fr
+                    ts.elasticity = 0.0
+                    ts.collision_type = DISK_TYPE
+                    ts.filter = pymunk.ShapeFilter(categories=TWIN, mask=REAL)
+                    hb = pymunk.Body(ob.mass, float("inf"))
+                    hb.position = ob.position
+                    j1 = pymunk.PivotJoint(ob, hb, (0, 0), (0, 0))
+                    j2 = pymunk.PivotJoint(tb, hb, (0, 0), (W, 0))
+                    g = pymunk.GearJoint(ob, tb, 0.0, 1.0)
+                    for c in (j1, j2, g):
+                        c.collide_bodies = False
+                    space.add(tb, ts, hb, j1, j2, g)
+                    self.twins[int(i)] = tb
+                    self.shape_owner[ts] = (int(i), 1)
+        self.floor = None
+        if problem.bottom_wall is not None:
+            xlo = -4.0 * float(p.r.max())
+            xhi = W + 4.0 * float(p.r.max()) + lim if p.periodic_x else W
+            fl = pymunk.Segment(space.static_body, (xlo, problem.bottom_wall),
+                                (xhi, problem.bottom_wall), 0.0)
+            fl.friction = 0.0
+            fl.collision_type = FLOOR_TYPE
+            fl.filter = pymunk.ShapeFilter(categories=FLOOR, mask=REAL)
+            space.add(fl)
+            self.floor = fl
+            wall_mu = float(problem.wall_mu)
+
+            def _pre(arb, _space, _data):
+                arb.friction = wall_mu
+            space.on_collision(DISK_TYPE, FLOOR_TYPE, pre_solve=_pre)
+        self.steps = 0
+        self.scale = scale
+
+    # ------------------------------------------------------------------
+    def step(self, n: int, ramp: float | None = None):
+        """Advance ``n`` steps, re-applying the loads (times ``ramp`` in [0, 1], default 1)."""
+        prob = self.problem
+        for _ in range(n):
+            s = 1.0 if ramp is None else ramp
+            for i in self.disks:
+                b = self.body[i]
+                b.force = (s * prob.load[i, 0], s * prob.load[i, 1])
+                b.torque = s * prob.torque[i]
+            self.space.step(self.dt)
+            self.steps += 1
+
+    def contacts(self):
+        """Current contacts: list of (a, b, image_of_b, force_on_b (2,), point_a (2,), point_b (2,)).
+
+        Disk pairs: a real, b real or twin (image +1 relative to a); wall
+        contacts have a = BOTTOM. Points are where the solver applies the
+        impulse on each body (b's point in b's image frame).
+        """
+        seen = set()
+        out = []
+        dt = self.dt
+
+        def visit(arb):
+            sa, sb = arb.shapes
+            key = (id(sa), id(sb)) if id(sa) < id(sb) else (id(sb), id(sa))
+            if key in seen:
+                return
+            seen.add(key)
+            J = arb.total_impulse
+            # each_arbiter puts the visited body's shape first; total_impulse acts on it
+            Fb = -np.array([J.x, J.y]) / dt      # force on shape b
+            pts = arb.contact_point_set.points
+            if not pts:
+                return
+            pa, pb = np.array(pts[0].point_a), np.array(pts[0].point_b)
+            if sb is self.floor:
+                out.append((BOTTOM, self.shape_owner[sa][0], 0, -Fb, pb, pa))
+                return
+            (ia, ima), (ib, imb) = self.shape_owner[sa], self.shape_owner[sb]
+            if ima:                               # a is a twin: shift everything by -W
+                shift = np.array([self.W, 0.0])
+                pa, pb = pa - shift, pb - shift
+            out.append((ia, ib, imb - ima, Fb, pa, pb))
+
+        for i in self.disks:
+            self.body[i].each_arbiter(visit)
+            if i in self.twins:
+                self.twins[i].each_arbiter(visit)
+        return out
+
+    def residual(self):
+        """Net force (n, 2) and torque (n,) on every active disk (plus its twin) [F0, F0 R]."""
+        force = self.problem.load.copy()
+        torque = self.problem.torque.copy()
+        for a, b, image, F, pa, pb in self.contacts():
+            cb = self._centre(b, image)
+            force[b] += F
+            lb = pb - cb
+            torque[b] += lb[0] * F[1] - lb[1] * F[0]
+            if a >= 0:
+                ca = self._centre(a)
+                force[a] -= F
+                la = pa - ca
+                torque[a] -= la[0] * F[1] - la[1] * F[0]
+        return force, torque
+
+    def _centre(self, i, image=0):
+        pos = self.body[i].position
+        return np.array([pos.x + image * self.W, pos.y])
+
+    def max_residual(self) -> float:
+        """Largest sqrt(F^2 + (T/r)^2) over active disks, relative to <Fn>."""
+        f, t = self.residual()
+        d = self.disks
+        res = np.sqrt((f[d] ** 2).sum(1) + (t[d] / self.p.r[d]) ** 2)
+        return float(res.max(initial=0.0) / self.scale)
+
+    # ------------------------------------------------------------------
+    def run(self, progress=None) -> dict:
+        """Ramp the loads in, then step until settled. Returns run statistics."""
+        opt = self.opt
+        t = time.perf_counter()
+        for k in range(opt.ramp_steps):
+            self.step(1, (k + 1) / opt.ramp_steps)
+        converged = False
+        res = float("inf")
+        while self.steps < opt.max_steps:
+            self.step(opt.check_every)
+            res = self.max_residual()
+            if progress:
+                progress(self.steps, res)
+            if res < opt.tolerance:
+                converged = True
+                break
+        return {"converged": converged, "steps": self.steps, "max_residual_rel": res,
+                "wall_time_s": time.perf_counter() - t}
+
+    def soft_packing(self, info: dict | None = None) -> Packing:
+        """The current state as a soft-network :class:`Packing` (same schema).
+
+        Disk pairs: a = first shape's disk, b = second's, image from twins;
+        normal from the centres; fn, ft of the force on b in that frame;
+        gap = distance - r_a - r_b. BOTTOM contacts a = BOTTOM. Full packing:
+        the top loads appear as TOP contacts carrying the imposed forces.
+        Inactive disks keep their rigid positions and have no contacts.
+        """
+        p, prob = self.p, self.problem
+        x, y = p.x.copy(), p.y.copy()
+        for i in self.disks:
+            x[i], y[i] = self.body[i].position
+        A, B, IMG, NRM, PT, GAP, FN, FT = [], [], [], [], [], [], [], []
+        for a, b, image, F, _pa, _pb in self.contacts():
+            if a == BOTTOM:
+                nv = np.array([0.0, 1.0])
+                gap = y[b] - p.r[b] - prob.bottom_wall
+                pt = np.array([x[b], prob.bottom_wall])
+            else:
+                d = np.array([x[b] + image * self.W - x[a], y[b] - y[a]])
+                dist = float(np.hypot(*d))
+                nv = d / dist
+                gap = dist - p.r[a] - p.r[b]
+                pt = np.array([x[a], y[a]]) + (p.r[a] + 0.5 * gap) * nv
+            A.append(a); B.append(b); IMG.append(image); NRM.append(nv); PT.append(pt)
+            GAP.append(gap); FN.append(F @ nv); FT.append(F @ np.array([-nv[1], nv[0]]))
+        if prob.top_load is not None:
+            for i in np.flatnonzero(prob.top_load != 0.0):
+                A.append(int(i)); B.append(TOP); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
+                PT.append(np.array([x[i], y[i] + p.r[i]])); GAP.append(0.0)
+                FN.append(prob.top_load[i]); FT.append(0.0)
+        meta = {"code": "pymunk", **{k: v for k, v in asdict(self.opt).items()},
+                "dt_abs": self.dt, "t0": self.t0, "problem": prob.description,
+                **(info or {})}
+        return Packing(x=x, y=y, r=p.r.copy(), width=p.width, periodic_x=p.periodic_x,
+                       y_bottom=p.y_bottom, y_top=p.y_top if prob.top_load is not None else np.nan,
+                       top_force=p.top_force if prob.top_load is not None else 0.0,
+                       gravity=p.gravity, density=p.density, mu=p.mu, plate_mu=p.plate_mu,
+                       a=np.array(A, dtype=np.int64), b=np.array(B, dtype=np.int64),
+                       normal=np.array(NRM).reshape(-1, 2), point=np.array(PT).reshape(-1, 2),
+                       image=np.array(IMG, dtype=np.int64), gap=np.array(GAP, float),
+                       fn=np.array(FN, float), ft=np.array(FT, float), seed=p.seed,
+                       scene_text=p.scene_text, scene_name=p.scene_name, meta=meta)
+
+
+def simulate(problem: SoftProblem, options: PymunkOptions | None = None, progress=None):
+    """Build the scene, run it; returns (soft Packing, run info dict)."""
+    scene = PymunkScene(problem, options)
+    info = scene.run(progress)
+    return scene.soft_packing(info), info
