@@ -68,7 +68,8 @@ def _cmd_distance(args):
     from .distance import compare
     soft = read_packing(args.soft, kind="soft_network")
     rigid = read_packing(args.packing)
-    out = compare(rigid, soft)
+    from .distance import make_problem
+    out = compare(rigid, soft, make_problem(rigid, args.top))
     if not args.list:
         out.pop("unmatched")
         out.pop("lost")
@@ -157,6 +158,9 @@ def register(subparsers):
     di.add_argument("soft", help="soft network file (forcespace import ...)")
     di.add_argument("packing", help="the rigid packing file")
     di.add_argument("--json", action="store_true", help="print JSON")
+    di.add_argument("--top", choices=("loads", "plate"), default="loads",
+                    help="S with the TOP contact forces fixed (loads, as LIGGGHTS runs) or "
+                         "unknown with the plate balance (plate, as pymunk runs)")
     di.add_argument("--list", action="store_true",
                     help="include the lists of unmatched and lost contacts")
     di.set_defaults(func=_cmd_distance)

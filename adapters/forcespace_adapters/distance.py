@@ -1,10 +1,17 @@
 """Distance of a soft force network from the rigid packing's force ensemble S.
 
-Uses only forcespace's public statics API: ``forcespace.statics.full_problem``
-builds S for the full packing (TOP contacts are fixed loads, BOTTOM contacts
-unknowns, rattlers excluded) and ``forcespace.polytope.distance_to_S`` gives the
-exact Euclidean projection. relative_distance = ||x - P_S(x)|| / (<Fn> sqrt(m)):
-the rms per-contact distance in units of the rigid mean normal force.
+Uses only forcespace's public statics API and ``forcespace.polytope.distance_to_S``
+(exact Euclidean projection). Two ensembles of the full packing:
+
+* ``top="plate"`` (default, matches the soft runs with a load-controlled top
+  plate): :func:`plate_problem` -- TOP contacts are unknowns too (friction
+  plate_mu) and one extra row holds the plate's vertical balance
+  sum(fn_top) = top_force. This is S of the paper's protocol.
+* ``top="loads"``: ``forcespace.statics.full_problem`` -- TOP contact forces
+  held fixed at their jammed values (a subset of the above).
+
+relative_distance = ||x - P_S(x)|| / (<Fn> sqrt(m)): the rms per-contact
+distance in units of the rigid mean normal force.
 """
 from __future__ import annotations
 
@@ -15,10 +22,33 @@ from forcespace.packing import Packing
 from .matching import MatchResult, match_contacts
 
 
+def plate_problem(rigid: Packing):
+    """S of the full packing with the TOP plate's contacts unknown and its balance as a row."""
+    import dataclasses
+
+    import scipy.sparse as sp
+    from forcespace.packing import BOTTOM, TOP
+    from forcespace.statics import build_problem
+    prob = build_problem(rigid, np.ones(rigid.n_disks, dtype=bool), unknown_walls=(BOTTOM, TOP),
+                         kind="full_plate", source="plate_problem")
+    top_cols = 2 * np.flatnonzero(rigid.b[prob.contacts] == TOP)
+    row = sp.csr_matrix((np.ones(top_cols.size), (np.zeros(top_cols.size, dtype=int), top_cols)),
+                        shape=(1, prob.n_columns))
+    return dataclasses.replace(prob, A=sp.vstack([prob.A, row]).tocsr(),
+                               b=np.append(prob.b, rigid.top_force))
+
+
+def make_problem(rigid: Packing, top: str = "plate"):
+    """The statics problem (S) to measure distances in; see the module docstring."""
+    if top == "plate":
+        return plate_problem(rigid)
+    from forcespace.statics import full_problem
+    return full_problem(rigid)
+
+
 def soft_vector(rigid: Packing, soft: Packing, problem=None):
     """(problem, x, match): the soft forces as a vector of the rigid statics problem."""
-    from forcespace.statics import full_problem
-    prob = problem if problem is not None else full_problem(rigid)
+    prob = problem if problem is not None else make_problem(rigid)
     m = match_contacts(rigid, soft)
     return prob, prob.forces_from_packing(m.fn, m.ft), m
 
@@ -33,13 +63,23 @@ def compare(rigid: Packing, soft: Packing, problem=None, match: MatchResult | No
     """
     from forcespace.polytope import distance_to_S
     prob, x, m = soft_vector(rigid, soft, problem)
-    d = distance_to_S(prob, x)
-    out = {"relative_distance": d.relative, "absolute_distance": d.absolute,
+    viol = prob.violation(x)
+    try:
+        d = distance_to_S(prob, x)
+        rel, ab, method = d.relative, d.absolute, d.method
+    except ValueError as exc:
+        # forcespace.polytope's active-set polish can fail on an empty active set
+        # (seen when x violates nothing but the plate row); report the violation
+        if viol > 1e-9:
+            raise
+        rel = ab = float("nan")
+        method = f"projection failed ({exc}); x satisfies S to violation {viol:.1e}"
+    out = {"relative_distance": rel, "absolute_distance": ab, "max_violation_rel": viol,
            **m.summary(prob.force_scale),
            "max_overlap": soft.max_overlap(),
            "soft_equilibrium_residual": soft.equilibrium_residual(),
            "n_unknown_contacts": prob.n_contacts, "force_scale": prob.force_scale,
-           "projection_method": d.method}
+           "projection_method": method}
     out["unmatched"] = m.unmatched
     out["lost"] = m.lost
     out["run"] = {k: v for k, v in soft.meta.items() if isinstance(v, (int, float, str, bool))}
@@ -48,8 +88,7 @@ def compare(rigid: Packing, soft: Packing, problem=None, match: MatchResult | No
 
 def distance_between(rigid: Packing, soft1: Packing, soft2: Packing, problem=None) -> float:
     """rms per-contact difference of two soft networks on the rigid contacts, / <Fn>."""
-    from forcespace.statics import full_problem
-    prob = problem if problem is not None else full_problem(rigid)
+    prob = problem if problem is not None else make_problem(rigid)
     _, x1, _ = soft_vector(rigid, soft1, prob)
     _, x2, _ = soft_vector(rigid, soft2, prob)
     return float(np.linalg.norm(x1 - x2) / (prob.force_scale * np.sqrt(prob.n_contacts)))

@@ -60,7 +60,9 @@ class LiggghtsOptions:
     tolerance: stop when the largest per-disk residual sqrt(F^2 + (T/r)^2) is
     below tolerance * mean rigid normal force; ramp_steps: steps over which the
     loads rise linearly from 0; check_every: steps between convergence checks;
-    max_steps: give up after this many steps (status converged = False).
+    max_steps: give up after this many steps (status converged = False);
+    plate_time: relaxation time of the load-controlled top plate in t_c (the
+    plate is overdamped: velocity = (force on it - target) / (N_top kn plate_time t_c)).
     """
 
     kn: float = 1e4
@@ -68,6 +70,7 @@ class LiggghtsOptions:
     damping_ratio: float = 0.7
     dt_fraction: float = 1.0 / 50.0
     tolerance: float = 1e-7
+    plate_time: float = 5.0
     ramp_steps: int = 5000
     check_every: int = 1000
     max_steps: int = 2_000_000
@@ -77,6 +80,7 @@ class LiggghtsOptions:
                   ("damping_ratio", self.damping_ratio >= 0, ">= 0"),
                   ("dt_fraction", 0 < self.dt_fraction <= 0.1, "in (0, 0.1] (t_c/10 fails)"),
                   ("tolerance", self.tolerance > 0, "> 0"),
+                  ("plate_time", self.plate_time > 0, "> 0"),
                   ("ramp_steps", self.ramp_steps >= 1, ">= 1"),
                   ("check_every", self.check_every >= 1, ">= 1"),
                   ("max_steps", self.max_steps >= self.ramp_steps, ">= ramp_steps")]
@@ -101,17 +105,23 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
     p = problem.packing
     if not p.periodic_x:
         raise InputError(source, "box.periodic_x", "LIGGGHTS export needs a packing periodic in x")
-    if problem.bottom_wall is None or not problem.active.all():
+    if problem.bottom_wall is None:
         raise InputError(source, "slice", "LIGGGHTS export supports the full packing only "
                          "(slice loads are frictional and need per-atom torques, which "
                          "LIGGGHTS 3.8 lacks); use the pymunk adapter for slices")
+    if problem.top_plate is not None:
+        raise InputError(source, "top", "a load-controlled top plate is not available in the "
+                         "LIGGGHTS export (a moving STL plate aborts LIGGGHTS 3.8 with 'Illegal "
+                         "situation in MultiNodeMesh::registerMove'); build the problem with "
+                         "top='loads' (dead loads; may be unstable, see problem.py) or use pymunk")
     if problem.frictional_loads:
         raise InputError(source, "plate_mu / top-plate ft",
                          "the top-plate forces have tangential parts; applying them needs a "
                          "per-atom torque that LIGGGHTS 3.8 lacks (no fix addtorque) — only "
                          "frictionless top-plate loads can be exported exactly; use pymunk")
     n = p.n_disks
-    m = p.mass
+    ids = np.flatnonzero(problem.active)       # rattlers are not exported
+    m = p.mass[ids]
     m_ref = 0.5 * float(m.min())
     t_c = np.pi * np.sqrt(m_ref / opt.kn)
     dt = t_c * opt.dt_fraction
@@ -128,6 +138,41 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
     skin = 0.25 * float(p.r.min())
     mu, wmu = float(problem.mu), float(problem.wall_mu)
     n_chunks = max(1, (opt.max_steps - opt.ramp_steps) // opt.check_every)
+    plate = problem.top_plate
+    if plate is not None:
+        y_top, T, pmu = plate
+        if pmu != wmu:
+            raise InputError(source, "plate_mu", "bottom and top plate friction must agree")
+        n_top = max(1, int(((p.b == TOP) & problem.internal).sum()))
+        mobility = 1.0 / (n_top * opt.kn * opt.plate_time * t_c)
+        yhi = max(yhi, y_top + 4.0 * rmax)
+        nstrip = int(np.ceil(W / float(p.r.min())))
+        xs = np.linspace(0.0, W, nstrip + 1)
+        top_lines = ["solid top"]
+        for k in range(nstrip):
+            x0_, x1_ = xs[k], xs[k + 1]
+            for tri in (((x0_, -0.5), (x1_, -0.5), (x1_, 0.5)), ((x0_, -0.5), (x1_, 0.5), (x0_, 0.5))):
+                top_lines += ["facet normal 0 -1 0", "outer loop"]
+                top_lines += [f"vertex {_fmt(xx)} {_fmt(y_top)} {_fmt(zz)}" for xx, zz in tri]
+                top_lines += ["endloop", "endfacet"]
+        top_lines.append("endsolid top")
+        plate_cmds = f"""
+# top plate: frictionless STL plane y = {y_top:g} in {nstrip} strips (top.stl), load-controlled:
+#   overdamped, velocity = (force on plate - ramp*{T:g}) * {mobility:g}
+fix top all mesh/surface/stress file top.stl type 2
+fix wallt all wall/gran model hooke/stiffness tangential history mesh n_meshes 1 meshes top store_force yes limitForce on
+variable vzero equal 0.0
+variable vplate equal {_fmt(mobility)}*(f_top[2]-v_s*{_fmt(T)})
+fix mv all move/mesh mesh top linear/variable v_vzero v_vplate v_vzero
+variable perr equal abs(f_top[2]-{_fmt(T)})
+"""
+        cond = f'"${{rmax}} < {_fmt(tol_abs)} && ${{perr}} < {_fmt(tol_abs)}"'
+        thermo_extra = " f_top[2]"
+        wall_cols = " f_force_wallt[1] f_force_wallt[2]"
+        stop_plate = "variable vplate delete\nvariable vplate equal 0.0\n"
+    else:
+        plate_cmds, thermo_extra, wall_cols, stop_plate = "", "", "", ""
+        cond = f'"${{rmax}} < {_fmt(tol_abs)}"'
 
     directory = Path(directory)
     directory.parent.mkdir(parents=True, exist_ok=True)
@@ -135,19 +180,20 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
     try:
         with open(tmp / "data.lmp", "w") as f:
             f.write("LAMMPS data file written by forcespace_adapters.liggghts\n\n")
-            f.write(f"{n} atoms\n2 atom types\n\n")
+            f.write(f"{ids.size} atoms\n2 atom types\n\n")
             f.write(f"0.0 {_fmt(W)} xlo xhi\n{_fmt(ylo)} {_fmt(yhi)} ylo yhi\n"
                     f"-0.5 0.5 zlo zhi\n\nAtoms\n\n")
-            for i in range(n):
+            for i in ids:
                 f.write(f"{i + 1} 1 {_fmt(2 * p.r[i])} {_fmt(p.density)} "
                         f"{_fmt(x[i])} {_fmt(p.y[i])} 0.0\n")
         for comp, name in ((0, "load_fx.txt"), (1, "load_fy.txt")):
             with open(tmp / name, "w") as f:
-                f.write(f"# fixed load component {'xy'[comp]} on each disk [F0]\n{n}\n")
-                for i in range(n):
+                f.write(f"# fixed load component {'xy'[comp]} on each disk [F0]\n{ids.size}\n")
+                for i in ids:
                     f.write(f"{i + 1} {_fmt(problem.load[i, comp])}\n")
         header = f"""# forcespace -> LIGGGHTS 3.8 deck (generated; do not edit by hand)
-# packing: {p.scene_name or '?'} seed {p.seed}, {n} disks, {p.n_contacts} rigid contacts
+# packing: {p.scene_name or '?'} seed {p.seed}, {n} disks, {p.n_contacts} rigid contacts;
+#   {ids.size} exported ({n - ids.size} rattlers left out: they carry no force in S)
 # units: lj numbers = forcespace units: lengths R, forces F0, density rho (mass = rho*pi*r^2 in 2-D)
 # atoms: id = forcespace disk index + 1, type 1; the bottom plate is material type 2
 # box: x periodic [0, {W:g}) (= packing width), y fixed [{ylo:g}, {yhi:g}], thin periodic z slab
@@ -191,7 +237,7 @@ timestep {_fmt(dt)}
 fix wall all wall/gran model hooke/stiffness tangential history primitive type 2 yplane {_fmt(ybot)} store_force yes limitForce on
 fix integr all nve/sphere
 
-variable s equal ramp(0.0,1.0)
+variable s equal ramp(0.0,1.0){plate_cmds}
 variable lfx atomfile load_fx.txt
 variable lfy atomfile load_fy.txt
 variable ax atom v_s*v_lfx
@@ -205,7 +251,7 @@ variable rmax equal c_rmax
 compute cpg all pair/gran/local id force force_normal force_tangential delta
 fix twod all enforce2d
 
-thermo_style custom step atoms ke c_rmax
+thermo_style custom step atoms ke c_rmax{thermo_extra}
 thermo_modify norm no lost error
 thermo {opt.check_every}
 
@@ -215,7 +261,7 @@ variable s equal 1.0
 variable it loop {n_chunks}
 label loop
 run {opt.check_every}
-if "${{rmax}} < {_fmt(tol_abs)}" then "jump SELF converged"
+if {cond} then "jump SELF converged"
 next it
 jump SELF loop
 print "FORCESPACE_STATUS not_converged"
@@ -224,21 +270,26 @@ label converged
 print "FORCESPACE_STATUS converged"
 label final
 
-velocity all set 0.0 0.0 0.0
+{stop_plate}velocity all set 0.0 0.0 0.0
 set group all omegaz 0.0
 dump dc all local 1 contacts.dump c_cpg[1] c_cpg[2] c_cpg[3] c_cpg[4] c_cpg[5] c_cpg[6] c_cpg[7] c_cpg[8] c_cpg[9] c_cpg[10] c_cpg[11] c_cpg[12] c_cpg[13]
 dump_modify dc format "%.0f %.0f %.0f %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"
-dump da all custom 1 atoms.dump id x y radius fx fy tqz f_force_wall[1] f_force_wall[2]
-dump_modify da format "%d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"
+dump da all custom 1 atoms.dump id x y radius fx fy tqz f_force_wall[1] f_force_wall[2]{wall_cols}
+dump_modify da format "%d{' %.17g' * (8 + (2 if plate else 0))}"
 run 0
 print "FORCESPACE_DONE"
 """
         (tmp / "in.liggghts").write_text(script)
+        if plate is not None:
+            (tmp / "top.stl").write_text("\n".join(top_lines) + "\n")
         meta = {"deck_version": DECK_VERSION, "code": "liggghts", "options": asdict(opt),
-                "n_disks": n, "width": W, "y_bottom": ybot, "m_ref": m_ref, "t_c": t_c,
+                "n_disks": n, "exported": ids.tolist(), "width": W,
+                "rigid_xyr": np.column_stack([p.x, p.y, p.r]).tolist(), "y_bottom": ybot, "m_ref": m_ref, "t_c": t_c,
                 "dt": dt, "gamma": gamma, "kt": kt, "force_scale": scale,
                 "tolerance_abs": tol_abs, "mu": mu, "wall_mu": wmu,
-                "load": problem.load.tolist(), "top_load": problem.top_load.tolist(),
+                "load": problem.load.tolist(),
+                "top_load": None if problem.top_load is None else problem.top_load.tolist(),
+                "top_plate": plate,
                 "packing": {"scene_name": p.scene_name, "seed": p.seed}}
         (tmp / "deck.json").write_text(json.dumps(meta, indent=1))
         if directory.exists():
@@ -334,13 +385,21 @@ def read_result(directory, rigid: Packing | None = None):
     atoms = _read_dump_table(d / "atoms.dump", "ATOMS")
     cont = _read_dump_table(d / "contacts.dump", "ENTRIES")
     n = meta["n_disks"]
-    if atoms.shape[0] != n:
-        raise LiggghtsError(f"{d / 'atoms.dump'}: {atoms.shape[0]} atoms, expected {n} (atoms lost?)")
-    order = np.argsort(atoms[:, 0])
-    atoms = atoms[order]
-    x, y, r = atoms[:, 1], atoms[:, 2], atoms[:, 3]
-    resid = atoms[:, 4:6]
-    wall = atoms[:, 7:9]
+    ids = np.asarray(meta["exported"], dtype=np.int64)
+    if atoms.shape[0] != ids.size:
+        raise LiggghtsError(f"{d / 'atoms.dump'}: {atoms.shape[0]} atoms, expected {ids.size} "
+                            f"(atoms lost?)")
+    xyr = np.asarray(meta["rigid_xyr"], float).reshape(n, 3)
+    x, y, r = xyr[:, 0].copy(), xyr[:, 1].copy(), xyr[:, 2].copy()
+    resid = np.zeros((n, 2))
+    wall = np.zeros((n, 2))
+    k = atoms[:, 0].astype(np.int64) - 1
+    x[k], y[k], r[k] = atoms[:, 1], atoms[:, 2], atoms[:, 3]
+    resid[k] = atoms[:, 4:6]
+    wall[k] = atoms[:, 7:9]
+    walltop = np.zeros((n, 2))
+    if meta.get("top_plate") is not None:
+        walltop[k] = atoms[:, 9:11]
     W = float(meta["width"])
     A, B, IMG, NRM, PT, GAP, FN, FT = [], [], [], [], [], [], [], []
     for row in cont.reshape(-1, 13) if cont.size else []:
@@ -360,8 +419,13 @@ def read_result(directory, rigid: Packing | None = None):
         A.append(BOTTOM); B.append(int(i)); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
         GAP.append(y[i] - r[i] - ybot); PT.append(np.array([x[i], ybot]))
         FN.append(wall[i, 1]); FT.append(-wall[i, 0])   # t = (-1, 0) for n = (0, 1)
-    top_load = np.asarray(meta["top_load"])
     top_force = 0.0
+    for i in np.flatnonzero(walltop[:, 1] != 0.0):        # plate pushes disk i down
+        A.append(int(i)); B.append(TOP); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
+        PT.append(np.array([x[i], y[i] + r[i]])); GAP.append(0.0)
+        FN.append(-walltop[i, 1]); FT.append(walltop[i, 0])   # force on TOP = -wall force
+        top_force += -walltop[i, 1]
+    top_load = np.asarray(meta["top_load"] or np.zeros(n))
     for i in np.flatnonzero(top_load != 0.0):
         A.append(int(i)); B.append(TOP); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
         GAP.append(0.0); PT.append(np.array([x[i], y[i] + r[i]]))

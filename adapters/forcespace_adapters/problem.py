@@ -4,10 +4,19 @@ A :class:`SoftProblem` is a rigid packing reduced to what a DEM code needs:
 which disks move, the fixed loads on them, and which plates remain walls.
 
 * Full packing: every disk moves; the BOTTOM plate stays a wall (fixed,
-  friction ``plate_mu``); the TOP plate is replaced by the forces its contacts
-  carry in the rigid state, applied to the disks as fixed loads through
-  their centres (a frictionless top plate pushes along the centre line, so
-  this is exact); gravity becomes a per-disk load ``-m g e_y``.
+  friction ``plate_mu``); gravity becomes a per-disk load ``-m g e_y``. The
+  TOP plate, with ``top="plate"`` (default), stays a load-controlled plate
+  (moves vertically only, total downward force ``top_force``); with
+  ``top="loads"`` it is replaced by the forces its contacts carry in the
+  rigid state, applied to the disks as fixed (dead) loads. Dead loads keep
+  the rigid state an equilibrium but not a stable one: a column of disks
+  under the plate can buckle once the plate no longer ties it to its
+  neighbours (seen on a 20-disk engine packing: LIGGGHTS and pymunk both
+  rearrange), so the plate is the default.
+* Rattlers (``Packing.rattlers()``, the convention forcespace's statics uses
+  to build S) are left out by default: they do not move, carry no force and
+  their contacts are dropped (a rattler that a soft code lets wander would
+  wedge itself into its cage and carry force on contacts S does not have).
 * Slice (``y_range=(y0, y1)``): disks whose centres lie in the range move;
   every contact between an interior disk and anything else (outside disk or
   plate) becomes a fixed load with its torque ``-r*ft`` (frictional loads);
@@ -49,6 +58,7 @@ class SoftProblem:
     internal: np.ndarray
     description: str = "full"
     top_load: np.ndarray | None = None   # (n,) normal force of each disk's TOP contact [F0]
+    top_plate: tuple | None = None       # (y_top [R], top_force [F0], plate_mu) for top="plate"
 
     @property
     def frictional_loads(self) -> bool:
@@ -87,10 +97,14 @@ class SoftProblem:
         act = self.active
         res = max(np.abs(force[act]).max(initial=0.0),
                   (np.abs(torque[act]) / p.r[act]).max(initial=0.0))
+        if self.top_plate is not None:
+            top = (p.b == TOP) & self.internal
+            res = max(res, abs(F[top, 1].sum() - self.top_plate[1]))
         return float(res / self.force_scale)
 
 
-def soft_problem(packing: Packing, y_range=None, source="packing") -> SoftProblem:
+def soft_problem(packing: Packing, y_range=None, exclude_rattlers: bool = True,
+                 top: str = "plate", source="packing") -> SoftProblem:
     """Build the :class:`SoftProblem` of a full packing (default) or of a slice."""
     p = packing
     n = p.n_disks
@@ -100,30 +114,43 @@ def soft_problem(packing: Packing, y_range=None, source="packing") -> SoftProble
     F = p.contact_forces()
     load = p.external_forces()
     torque = np.zeros(n)
+    keep = ~p.rattlers() if exclude_rattlers else np.ones(n, dtype=bool)
+    # contacts touching an excluded rattler are dropped entirely
+    alive = ((p.a < 0) | keep[np.maximum(p.a, 0)]) & ((p.b < 0) | keep[np.maximum(p.b, 0)])
     if y_range is None:
-        active = np.ones(n, dtype=bool)
+        active = keep.copy()
         if not np.isfinite(p.y_bottom):
             raise InputError(source, "box.y_bottom", "a full packing needs a bottom plate")
-        top = p.b == TOP
-        np.add.at(load, p.a[top], -F[top])
-        np.add.at(torque, p.a[top], -p.r[p.a[top]] * p.ft[top])
-        internal = ~top
+        if top not in ("plate", "loads"):
+            raise InputError(source, "top", "must be 'plate' or 'loads'", got=top)
+        if top == "plate":
+            if not np.isfinite(p.y_top):
+                raise InputError(source, "box.y_top", "top='plate' needs a top plate")
+            load[~active] = 0.0
+            return SoftProblem(p, active, load, torque, float(p.y_bottom), float(p.plate_mu),
+                               float(p.mu), alive.copy(), "full, load-controlled top plate",
+                               None, (float(p.y_top), float(p.top_force), float(p.plate_mu)))
+        ctop = (p.b == TOP) & alive
+        np.add.at(load, p.a[ctop], -F[ctop])
+        np.add.at(torque, p.a[ctop], -p.r[p.a[ctop]] * p.ft[ctop])
+        internal = ~(p.b == TOP) & alive
+        load[~active] = 0.0
         top_load = np.zeros(n)
-        np.add.at(top_load, p.a[top], p.fn[top])
+        np.add.at(top_load, p.a[ctop], p.fn[ctop])
         return SoftProblem(p, active, load, torque, float(p.y_bottom), float(p.plate_mu),
-                           float(p.mu), internal, "full", top_load)
+                           float(p.mu), internal, "full, top plate as dead loads", top_load)
     y0, y1 = map(float, y_range)
     if not y1 > y0:
         raise InputError(source, "y_range", "must be (y0, y1) with y1 > y0", got=y_range)
-    active = (p.y >= y0) & (p.y <= y1)
+    active = (p.y >= y0) & (p.y <= y1) & keep
     if not active.any():
         raise InputError(source, "y_range", "contains no disk centre", got=y_range)
     act_a = (p.a >= 0) & active[np.maximum(p.a, 0)]
     act_b = (p.b >= 0) & active[np.maximum(p.b, 0)]
     internal = act_a & act_b
     # boundary contacts: exactly one side active -> fixed load on that disk
-    on_b = act_b & ~act_a
-    on_a = act_a & ~act_b
+    on_b = act_b & ~act_a & alive
+    on_a = act_a & ~act_b & alive
     np.add.at(load, p.b[on_b], F[on_b])
     np.add.at(torque, p.b[on_b], -p.r[p.b[on_b]] * p.ft[on_b])
     np.add.at(load, p.a[on_a], -F[on_a])

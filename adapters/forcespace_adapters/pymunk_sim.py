@@ -35,8 +35,8 @@ from forcespace.packing import BOTTOM, TOP, Packing
 
 from .problem import SoftProblem
 
-REAL, TWIN, FLOOR = 0b001, 0b010, 0b100
-DISK_TYPE, FLOOR_TYPE = 1, 2
+REAL, TWIN, FLOOR, PLATE = 0b0001, 0b0010, 0b0100, 0b1000
+DISK_TYPE, FLOOR_TYPE, PLATE_TYPE = 1, 2, 3
 
 
 @dataclass
@@ -113,7 +113,7 @@ class PymunkScene:
             s.friction = fr
             s.elasticity = 0.0
             s.collision_type = DISK_TYPE
-            s.filter = pymunk.ShapeFilter(categories=REAL, mask=REAL | TWIN | FLOOR)
+            s.filter = pymunk.ShapeFilter(categories=REAL, mask=REAL | TWIN | FLOOR | PLATE)
             space.add(b, s)
             self.body[i] = b
             self.shape_owner[s] = (int(i), 0)
@@ -159,6 +159,30 @@ class PymunkScene:
             def _pre(arb, _space, _data):
                 arb.friction = wall_mu
             space.on_collision(DISK_TYPE, FLOOR_TYPE, pre_solve=_pre)
+        self.plate = None
+        self.plate_shape = None
+        if problem.top_plate is not None:
+            y_top, T, pmu = problem.top_plate
+            self.plate_force = float(T)
+            pb = pymunk.Body(float(5.0 * m[self.disks].mean()), float("inf"))
+            pb.position = (0.5 * W, y_top)
+            half = 0.5 * W + 4.0 * float(p.r.max()) + (lim if p.periodic_x else 0.0)
+            ps = pymunk.Segment(pb, (-half, 0.0), (half, 0.0), 0.0)
+            ps.friction = 0.0
+            ps.collision_type = PLATE_TYPE
+            ps.filter = pymunk.ShapeFilter(categories=PLATE, mask=REAL)
+
+            def _vertical(body, gravity, damping, dt):
+                pymunk.Body.update_velocity(body, gravity, damping, dt)
+                body.velocity = (0.0, body.velocity.y)
+            pb.velocity_func = _vertical
+            space.add(pb, ps)
+            self.plate, self.plate_shape = pb, ps
+            plate_mu = float(pmu)
+
+            def _pre_plate(arb, _space, _data):
+                arb.friction = plate_mu
+            space.on_collision(DISK_TYPE, PLATE_TYPE, pre_solve=_pre_plate)
         self.steps = 0
         self.scale = scale
 
@@ -172,6 +196,8 @@ class PymunkScene:
                 b = self.body[i]
                 b.force = (s * prob.load[i, 0], s * prob.load[i, 1])
                 b.torque = s * prob.torque[i]
+            if self.plate is not None:
+                self.plate.force = (0.0, -s * self.plate_force)
             self.space.step(self.dt)
             self.steps += 1
 
@@ -202,6 +228,9 @@ class PymunkScene:
             if sb is self.floor:
                 out.append((BOTTOM, self.shape_owner[sa][0], 0, -Fb, pb, pa))
                 return
+            if sb is self.plate_shape:
+                out.append((self.shape_owner[sa][0], TOP, 0, Fb, pa, pb))
+                return
             (ia, ima), (ib, imb) = self.shape_owner[sa], self.shape_owner[sb]
             if ima:                               # a is a twin: shift everything by -W
                 shift = np.array([self.W, 0.0])
@@ -218,11 +247,15 @@ class PymunkScene:
         """Net force (n, 2) and torque (n,) on every active disk (plus its twin) [F0, F0 R]."""
         force = self.problem.load.copy()
         torque = self.problem.torque.copy()
+        self._plate_residual = -self.plate_force if self.plate is not None else 0.0
         for a, b, image, F, pa, pb in self.contacts():
-            cb = self._centre(b, image)
-            force[b] += F
-            lb = pb - cb
-            torque[b] += lb[0] * F[1] - lb[1] * F[0]
+            if b >= 0:
+                cb = self._centre(b, image)
+                force[b] += F
+                lb = pb - cb
+                torque[b] += lb[0] * F[1] - lb[1] * F[0]
+            else:
+                self._plate_residual += F[1]
             if a >= 0:
                 ca = self._centre(a)
                 force[a] -= F
@@ -239,7 +272,7 @@ class PymunkScene:
         f, t = self.residual()
         d = self.disks
         res = np.sqrt((f[d] ** 2).sum(1) + (t[d] / self.p.r[d]) ** 2)
-        return float(res.max(initial=0.0) / self.scale)
+        return float(max(res.max(initial=0.0), abs(self._plate_residual)) / self.scale)
 
     # ------------------------------------------------------------------
     def run(self, progress=None) -> dict:
@@ -280,6 +313,12 @@ class PymunkScene:
                 nv = np.array([0.0, 1.0])
                 gap = y[b] - p.r[b] - prob.bottom_wall
                 pt = np.array([x[b], prob.bottom_wall])
+            elif b == TOP:
+                nv = np.array([0.0, 1.0])
+                ytop = self.plate.position.y
+                gap = ytop - y[a] - p.r[a]
+                pt = np.array([x[a], ytop])
+                image = 0
             else:
                 d = np.array([x[b] + image * self.W - x[a], y[b] - y[a]])
                 dist = float(np.hypot(*d))
@@ -297,8 +336,11 @@ class PymunkScene:
                 "dt_abs": self.dt, "t0": self.t0, "problem": prob.description,
                 **(info or {})}
         return Packing(x=x, y=y, r=p.r.copy(), width=p.width, periodic_x=p.periodic_x,
-                       y_bottom=p.y_bottom, y_top=p.y_top if prob.top_load is not None else np.nan,
-                       top_force=p.top_force if prob.top_load is not None else 0.0,
+                       y_bottom=p.y_bottom,
+                       y_top=(self.plate.position.y if self.plate is not None else
+                              p.y_top if prob.top_load is not None else np.nan),
+                       top_force=p.top_force if (prob.top_load is not None or
+                                                 self.plate is not None) else 0.0,
                        gravity=p.gravity, density=p.density, mu=p.mu, plate_mu=p.plate_mu,
                        a=np.array(A, dtype=np.int64), b=np.array(B, dtype=np.int64),
                        normal=np.array(NRM).reshape(-1, 2), point=np.array(PT).reshape(-1, 2),

@@ -46,7 +46,8 @@ def export(code: str, packing_path, directory, options=None, y_range=None) -> Pa
     if code not in CODES:
         raise InputError("export", "code", f"must be one of {CODES}", got=code)
     rigid = read_packing(packing_path)
-    prob = soft_problem(rigid, y_range, source=packing_path)
+    top = "loads" if code == "liggghts" else "plate"
+    prob = soft_problem(rigid, y_range, top=top, source=packing_path)
     d = Path(directory)
     if code == "liggghts":
         if y_range is not None:
@@ -62,7 +63,7 @@ def export(code: str, packing_path, directory, options=None, y_range=None) -> Pa
         d.mkdir(parents=True)
     shutil.copyfile(packing_path, d / ".rigid.h5.tmp")
     os.replace(d / ".rigid.h5.tmp", d / "rigid.h5")
-    _write_json(d / "run.json", {"code": code, "options": asdict(opt),
+    _write_json(d / "run.json", {"code": code, "options": asdict(opt), "top": top,
                                  "y_range": list(y_range) if y_range is not None else None,
                                  "packing": str(Path(packing_path).resolve())})
     return d
@@ -77,7 +78,7 @@ def run(code: str, directory, binary=None, timeout=None, progress=None) -> dict:
     if code == "liggghts":
         return liggghts.run_deck(d, binary=binary, timeout=timeout)
     rigid = read_packing(d / "rigid.h5")
-    prob = soft_problem(rigid, meta["y_range"], source=d / "rigid.h5")
+    prob = soft_problem(rigid, meta["y_range"], top=meta.get("top", "plate"), source=d / "rigid.h5")
     soft, info = simulate(prob, PymunkOptions(**meta["options"]), progress)
     write_packing(soft, d / "result.h5", kind="soft_network", extra_attrs=_attrs(soft))
     _write_json(d / "status.json", info)

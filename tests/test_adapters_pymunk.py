@@ -1,0 +1,41 @@
+"""pymunk adapter (real pymunk) on small packings."""
+import numpy as np
+import pytest
+
+from forcespace_adapters.distance import compare, make_problem
+from forcespace_adapters.problem import soft_problem
+from forcespace_adapters.pymunk_sim import PymunkOptions, PymunkScene, simulate
+from forcespace_adapters.toy import two_row_packing
+
+
+def test_dead_loads_match_closed_form():
+    p = two_row_packing(4, mu=0.1)
+    prob = soft_problem(p, top="loads")
+    assert prob.rigid_residual() < 1e-12
+    soft, info = simulate(prob, PymunkOptions(max_steps=5000))
+    assert info["converged"]
+    c = compare(p, soft, make_problem(p, "loads"))
+    assert c["unmatched_contacts"] == 0 and c["lost_contacts"] == 0
+    assert c["relative_distance"] < 1e-5
+
+
+def test_plate_and_periodic_twin():
+    p = two_row_packing(4, mu=0.1)
+    sc = PymunkScene(soft_problem(p, top="plate"), PymunkOptions(max_steps=5000))
+    assert sc.twins                            # the disk at x = 0 has a twin
+    info = sc.run()
+    assert info["converged"]
+    soft = sc.soft_packing(info)
+    # one cross-boundary contact per period, seen exactly once
+    assert (soft.image != 0).sum() == (p.image != 0).sum()
+    top = soft.b == -2
+    assert soft.fn[top].sum() == pytest.approx(p.top_force, rel=1e-5)
+    assert soft.equilibrium_residual() < 1e-4
+
+
+def test_slice_has_frictional_loads():
+    p = two_row_packing(4, mu=0.1)
+    prob = soft_problem(p, y_range=(0.5, 1.5))
+    assert prob.rigid_residual() < 1e-12
+    soft, info = simulate(prob, PymunkOptions(max_steps=3000))
+    assert info["converged"]
