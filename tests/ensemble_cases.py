@@ -25,13 +25,14 @@ def _packing(x, y, r, a, b, fn, ft, mu, gravity, plate_mu=0.0, y_bottom=np.nan):
     b = np.asarray(b, np.int64)
     nrm = []
     for i, j in zip(a, b):
-        if i == -1:          # BOTTOM plate below disk j
+        if i == -1 or j == -2:   # BOTTOM plate below disk j / TOP plate above disk i
             nrm.append((0.0, 1.0))
             continue
         d = np.array([x[j] - x[i], y[j] - y[i]])
         nrm.append(d / np.linalg.norm(d))
     nrm = np.array(nrm)
-    pts = np.array([(x[j] - r[j] * n[0], y[j] - r[j] * n[1]) for j, n in zip(b, nrm)])
+    pts = np.array([(x[i] + r[i] * n[0], y[i] + r[i] * n[1]) if j < 0 else
+                    (x[j] - r[j] * n[0], y[j] - r[j] * n[1]) for i, j, n in zip(a, b, nrm)])
     return Packing(x=x, y=y, r=r, width=100.0, periodic_x=False, y_bottom=y_bottom,
                    y_top=np.nan, top_force=0.0, gravity=gravity, density=1.0, mu=mu,
                    plate_mu=plate_mu, a=a, b=b, normal=nrm, point=pts,
@@ -66,34 +67,49 @@ def groove(theta, mu, W=1.0):
     return grooves([theta], mu, W)
 
 
-def stack(mu, W=1.0, plate_mu=0.5):
-    """Three unit disks on a floor (BOTTOM): 0 and 1 on the floor, touching each
-    other; 2 on top of both. Weight W on each disk. 6 contacts, 9 equations.
+def pyramid(rows, mu, plate_mu=0.5, W=1.0):
+    """A pyramid of unit disks on a floor (BOTTOM plate, a support): row k
+    (k = 0 at the floor) holds rows-k disks, neighbours touching. Weight W per
+    disk. Returns (packing, problem) with the packing's forces set to the
+    Chebyshev centre of S (an admissible 'jammed' state)."""
+    from forcespace.polytope import analyze
 
-    Jammed state: the frictionless-symmetric solution (ft = 0 everywhere,
-    fn(2-0) = fn(2-1) = W / (2 cos 30deg) ... with a compressive 0-1 contact of
-    W tan30 / 2 balancing the horizontal pushes). Returns (packing, problem).
-    """
-    c30, s30 = np.cos(np.pi / 6), np.sin(np.pi / 6)
-    x = [-1.0, 1.0, 0.0]
-    y = [1.0, 1.0, 1.0 + 2 * c30]
-    f_top = W / (2 * c30)                    # contacts 0->2 and 1->2
-    f_mid = f_top * s30                      # contact 0->1 pushes them apart? balance:
-    # disk 0 gets -f_top*(s30, c30) from the top disk and -f_mid*(1,0) from disk 1:
-    # x balance needs the contact 0-1 to pull, which is impossible -> use the floor:
-    # with friction at the floor the horizontal push is taken by floor friction.
-    a = [-1, -1, 0, 0, 1]
-    b = [0, 1, 1, 2, 2]
-    # floor normal forces: W + W/2 each; floor friction balances f_top*s30
-    fn = [1.5 * W, 1.5 * W, 0.0, f_top, f_top]
-    ft = [0.0, 0.0, 0.0, 0.0, 0.0]
-    # disk 0: force from 2 on 0 is -f_top*(s30, c30); floor tangential t=(-1,0) on b=0
-    ft[0] = f_top * s30 / -1.0 * -1.0        # ft*(-1) - f_top*s30 = 0 -> ft = -f_top*s30
-    ft[0] = -f_top * s30
-    ft[1] = f_top * s30
-    # torque balance of 0: -r*ft0 (floor) -r*ft(0-2) ... needs ft(0-2) = -ft0: set it
-    ft[3] = -ft[0]
-    ft[4] = -ft[1]
-    p = _packing(x, y, [1.0, 1.0, 1.0], a, b, fn, ft, mu, gravity=W / np.pi,
+    xs, ys = [], []
+    for k in range(rows):
+        for i in range(rows - k):
+            xs.append(2.0 * i + k)
+            ys.append(1.0 + k * np.sqrt(3.0))
+    n = len(xs)
+    a, b = [], []
+    for i in range(n):
+        if abs(ys[i] - 1.0) < 1e-12:
+            a.append(-1)
+            b.append(i)
+        for j in range(i + 1, n):
+            if abs(np.hypot(xs[j] - xs[i], ys[j] - ys[i]) - 2.0) < 1e-9:
+                a.append(i)
+                b.append(j)
+    m = len(a)
+    p = _packing(xs, ys, np.ones(n), a, b, np.ones(m), np.zeros(m), mu, gravity=W / np.pi,
                  plate_mu=plate_mu, y_bottom=0.0)
-    return p
+    prob = build_problem(p, np.ones(n, bool), (-1,), "test", rattlers=np.zeros(n, bool))
+    an = analyze(prob, ranges=False)
+    fn, ft = prob.to_packing_forces(an.centre)
+    p = p.with_forces(fn, ft)
+    prob = build_problem(p, np.ones(n, bool), (-1,), "test", rattlers=np.zeros(n, bool))
+    return p, prob
+
+
+def lattice_in_box(mu):
+    """A hexagon of 7 unit disks whose outer 6 are fixed supports, no load:
+    any isotropic compression is admissible, so S is unbounded."""
+    xs = [0.0] + [2 * np.cos(k * np.pi / 3) for k in range(6)]
+    ys = [0.0] + [2 * np.sin(k * np.pi / 3) for k in range(6)]
+    a = [1, 2, 3, 4, 5, 6]
+    b = [0] * 6
+    p = _packing(xs, ys, np.ones(7), a, b, np.ones(6), np.zeros(6), mu, gravity=0.0)
+    interior = np.zeros(7, bool)
+    interior[0] = True
+    prob = build_problem(p, interior, (), "test", support_mask=~interior,
+                         rattlers=np.zeros(7, bool))
+    return p, prob

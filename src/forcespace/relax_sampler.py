@@ -1,0 +1,185 @@
+"""The paper's perturb-and-relax walk through S (Unger et al., footnote on sampling).
+
+From the last admissible network: add to fn and ft of every unknown contact
+an independent kick uniform in [-<Fn>, <Fn>] (<Fn> = problem.force_scale, the
+jammed mean normal force; ft is not kicked where mu = 0, since it is 0 by
+definition there), then relax with the nonlinear Gauss-Seidel contact solver
+(nlgs.nlgs_solve) in statics mode: positions fixed, gaps 0, velocities
+``v = dt M^-1 (F_ext + contact forces)`` from rest, dt = 1 and the disk masses
+acting only as preconditioner weights. Fixed supports (walls, support disks)
+have zero inverse mass. Loads (fixed boundary forces and their torques) enter
+as the initial velocities dt M^-1 F_ext.
+
+Relaxation stops when the sample's violation of S (equilibrium residual;
+Coulomb and fn >= 0 hold exactly after every Gauss-Seidel update) relative to
+<Fn> is <= ``tol`` (default 1e-9), checked on the forces themselves every
+``chunk`` sweeps, or fails with NumericalError after ``max_sweeps``.
+The walk is not proven to sample S uniformly.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+
+import numpy as np
+
+from . import ensemble_file as ef
+from .errors import InputError, NumericalError
+from .nlgs import add_contact_velocities, effective_masses, nlgs_solve
+from .polytope import check_bounded, check_feasible
+from .statics import StaticsProblem
+
+DEFAULT_TOL = 1e-9
+
+
+class Relaxer:
+    """Kernel arrays of one problem for repeated NLGS relaxations."""
+
+    def __init__(self, problem: StaticsProblem):
+        p = problem
+        n = p.n_interior
+        nb = n + p.n_supports
+        self.problem = p
+        self.inv_m = np.zeros(nb)
+        self.inv_m[:n] = 1.0 / p.mass
+        self.inv_i = np.zeros(nb)
+        self.inv_i[:n] = 1.0 / (0.5 * p.mass * p.radius ** 2)
+        self.ka = p.ka.astype(np.int64)
+        self.kb = p.kb.astype(np.int64)
+        self.nx = p.nx.astype(float)
+        self.ny = p.ny.astype(float)
+        self.ra = p.ra.astype(float)
+        self.rb = p.rb.astype(float)
+        self.mu = p.mu.astype(float)
+        self.gap = np.zeros(p.n_contacts)
+        self.mn, self.mt = effective_masses(self.ka, self.kb, self.nx, self.ny, self.ra, self.rb,
+                                            self.inv_m, self.inv_m, self.inv_i)
+        self.v_ext = (np.zeros(nb), np.zeros(nb), np.zeros(nb))
+        self.v_ext[0][:n] = p.load_force[:, 0] / p.mass
+        self.v_ext[1][:n] = p.load_force[:, 1] / p.mass
+        self.v_ext[2][:n] = p.load_torque * self.inv_i[:n]
+
+    def relax(self, x, tol=DEFAULT_TOL, chunk=200, max_sweeps=2_000_000, seed=0,
+              stall_sweeps=20_000):
+        """Relax forces x (2m,) to an admissible network; returns (x, sweeps, violation)."""
+        rn = np.ascontiguousarray(x[0::2], dtype=float).copy()
+        rt = np.ascontiguousarray(x[1::2], dtype=float).copy()
+        rt[self.mu == 0.0] = 0.0
+        sweeps = 0
+        out = np.empty(2 * rn.size)
+        best, since = np.inf, 0
+        while True:
+            vx, vy, w = (v.copy() for v in self.v_ext)
+            add_contact_velocities(self.ka, self.kb, self.nx, self.ny, self.ra, self.rb, rn, rt,
+                                   self.inv_m, self.inv_m, self.inv_i, 1.0, vx, vy, w)
+            s, _, _, _ = nlgs_solve(self.ka, self.kb, self.nx, self.ny, self.ra, self.rb,
+                                    self.gap, self.mu, self.mn, self.mt, rn, rt, vx, vy, w,
+                                    self.inv_m, self.inv_m, self.inv_i, 1.0, 0.0, chunk,
+                                    (seed * 1_000_003 + sweeps) % (2**31 - 1))
+            sweeps += s
+            out[0::2] = rn
+            out[1::2] = rt
+            viol = self.problem.violation(out)
+            if viol <= tol:
+                return out.copy(), sweeps, viol
+            if viol < 0.99 * best:
+                best, since = viol, 0
+            else:
+                since += chunk
+            if since >= stall_sweeps:
+                raise NumericalError(f"NLGS relaxation stalled at violation {viol:.2e} x <Fn> "
+                                     f"(no progress in {since} sweeps): it converged to a "
+                                     f"non-static solution of the contact problem (bodies keep "
+                                     f"moving, e.g. sliding); this start/kick does not relax")
+            if sweeps >= max_sweeps or not np.isfinite(viol):
+                raise NumericalError(f"NLGS relaxation did not reach violation {tol:.1e} x <Fn> "
+                                     f"in {sweeps} sweeps (reached {viol:.2e}); raise max_sweeps "
+                                     f"or tol")
+
+
+def kick(x, mu, scale, rng):
+    """Add uniform [-scale, scale] kicks to fn and ft (ft only where mu > 0)."""
+    k = rng.uniform(-scale, scale, size=x.shape)
+    k[1::2][mu == 0.0] = 0.0
+    return x + k
+
+
+def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_name: str = "",
+           scene_text: str = "", seed: int = 0, tol: float = DEFAULT_TOL, chunk: int = 200,
+           max_sweeps: int = 2_000_000, checkpoint_every: int = 10, progress: bool = False,
+           max_seconds: float | None = None, start=None) -> dict:
+    """Write ``n`` perturb-and-relax samples to ``out`` (resumes a matching file).
+
+    ``start`` (2m,): first network (default: the jammed forces, relaxed to tol).
+    Returns a summary dict. Refuses an infeasible or unbounded S.
+    """
+    if n < 1:
+        raise InputError("sample", "n", "must be >= 1", got=n)
+    if not (tol > 0):
+        raise InputError("sample", "tol", "must be > 0", got=tol)
+    t0 = time.perf_counter()
+    feas, _, _ = check_feasible(problem)
+    if not feas:
+        raise InputError(problem.source or "problem", "S", "is empty (infeasible): nothing to sample")
+    bounded, _, _ = check_bounded(problem)
+    if not bounded:
+        raise InputError(problem.source or "problem", "S",
+                         "is unbounded (a recession direction exists, e.g. a wedged contact); "
+                         "refusing to sample")
+    params = {"seed": int(seed), "tol": float(tol), "kick": "uniform +-<Fn> on fn and ft",
+              "kick_scale": problem.force_scale}
+    relaxer = Relaxer(problem)
+    ens = ef.existing(out, problem, "relax", params)
+    if ens is None:
+        x0 = problem.x_jammed if start is None else np.asarray(start, float)
+        x, sw, v = relaxer.relax(x0, tol, chunk, max_sweeps, seed)
+        rng = np.random.default_rng(seed)
+        ef.create(out, problem, "relax", params, packing_file, scene_name, scene_text,
+                  setup={"x_start": x},
+                  setup_describe={"x_start": ("F0", "jammed network relaxed to tol (walk start)")},
+                  checkpoint={"x": x},
+                  checkpoint_attrs={"rng_state": json.dumps(rng.bit_generator.state),
+                                    "n_done": 0, "sweeps_total": int(sw)},
+                  tolerance_description=f"every sample has max violation <= {tol} relative to "
+                                        f"<Fn> (checked after relaxation)")
+        ens = ef.read(out)
+    x = ens.checkpoint["x"].copy()
+    rng = np.random.default_rng()
+    rng.bit_generator.state = json.loads(ens.checkpoint_attrs["rng_state"])
+    sweeps_total = int(ens.checkpoint_attrs.get("sweeps_total", 0))
+    done = ens.n_samples
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=n, initial=min(done, n), desc="relax", unit="sample", file=sys.stderr)
+    buf_x, buf_v = [], []
+    while done + len(buf_x) < n:
+        i = done + len(buf_x)
+        xk = kick(x, problem.mu, problem.force_scale, rng)
+        x, sw, v = relaxer.relax(xk, tol, chunk, max_sweeps, seed + 1 + i)
+        sweeps_total += sw
+        v_check = problem.violation(x)
+        if not v_check <= tol:
+            raise NumericalError(f"relax sample {i} violates S by {v_check:.3e} x <Fn>")
+        buf_x.append(x)
+        buf_v.append(v_check)
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix(sweeps=sw)
+        last = done + len(buf_x) >= n
+        timeout = max_seconds is not None and time.perf_counter() - t0 > max_seconds
+        if len(buf_x) >= checkpoint_every or last or timeout:
+            done = ef.append(out, np.array(buf_x), np.zeros(len(buf_x), np.int64), buf_v,
+                             {"x": x}, {"rng_state": json.dumps(rng.bit_generator.state),
+                                        "n_done": done + len(buf_x),
+                                        "sweeps_total": int(sweeps_total)})
+            buf_x, buf_v = [], []
+            if timeout:
+                break
+    if bar is not None:
+        bar.close()
+    ens = ef.read(out)
+    return {"n_samples": ens.n_samples, "wall_time_s": time.perf_counter() - t0,
+            "max_violation": float(ens.violations.max(initial=0.0)),
+            "sweeps_total": sweeps_total, "params": params}
