@@ -1,0 +1,144 @@
+"""Soft (LIGGGHTS, pymunk) force networks against the rigid packing's force ensemble S.
+
+Usage::
+
+    python studies/soft_vs_rigid.py PACK_mu0.h5 PACK_mu0.1.h5 PACK_mu0.5.h5 [--out studies/out]
+        [--kn-ladder 1e2 1e3 1e4 1e5 1e6] [--quick]
+
+Packings come from ``forcespace pack inputs/paper.toml --mu M -o PACK.h5``.
+Per packing: a LIGGGHTS stiffness ladder (kn = K * <Fn>/R; top plate as dead
+loads, the only exact LIGGGHTS export), kt/kn = 2/7 and 1 at the middle K;
+pymunk (load-controlled plate) at several iteration counts and time steps.
+Each run is stored as ``OUT/runs/<packing>__<run>.json`` and skipped when
+present (checkpoint/resume). Outputs: ``OUT/table.csv``, ``OUT/distance_vs_kn.png/.pdf``
+and the fitted exponent of relative distance vs K (log-log least squares).
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def _run_liggghts(p, K, kt_ratio, work):
+    from forcespace_adapters import liggghts as L
+    from forcespace_adapters.problem import soft_problem
+    prob = soft_problem(p, top="loads")
+    d = work / f"lig_K{K:g}_kt{kt_ratio:.3f}"
+    L.write_deck(prob, d, L.LiggghtsOptions(kn=K * prob.force_scale, kt_ratio=kt_ratio))
+    st = L.run_deck(d)
+    soft, info = L.read_result(d, p)
+    return soft, {**info, "K": K, "top": "loads"}
+
+
+def _run_pymunk(p, iterations, dt):
+    from forcespace_adapters.problem import soft_problem
+    from forcespace_adapters.pymunk_sim import PymunkOptions, simulate
+    soft, info = simulate(soft_problem(p, top="plate"),
+                          PymunkOptions(iterations=iterations, dt=dt, max_steps=20000))
+    return soft, {**info, "iterations": iterations, "dt": dt, "top": "plate"}
+
+
+def _measure(p, soft, top, S_cache):
+    from forcespace_adapters.distance import compare, make_problem
+    if top not in S_cache:
+        S_cache[top] = make_problem(p, top)
+    try:
+        c = compare(p, soft, S_cache[top])
+    except Exception as exc:  # report, do not abort the study
+        return {"relative_distance": float("nan"), "error": f"{type(exc).__name__}: {exc}"}
+    c.pop("unmatched")
+    c.pop("lost")
+    c.pop("run")
+    return c
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("packings", nargs="+")
+    ap.add_argument("--out", default="studies/out")
+    ap.add_argument("--kn-ladder", type=float, nargs="+", default=[1e2, 1e3, 1e4, 1e5, 1e6])
+    ap.add_argument("--quick", action="store_true", help="pymunk at one setting only")
+    args = ap.parse_args(argv)
+    from forcespace.packing_file import read_packing
+    out = Path(args.out)
+    (out / "runs").mkdir(parents=True, exist_ok=True)
+    rows = []
+    for path in args.packings:
+        p = read_packing(path)
+        name = Path(path).stem
+        work = out / "work" / name
+        work.mkdir(parents=True, exist_ok=True)
+        S_cache = {}
+        plan = [("liggghts", K, 2 / 7) for K in args.kn_ladder]
+        mid = args.kn_ladder[len(args.kn_ladder) // 2]
+        plan.append(("liggghts", mid, 1.0))
+        pm = [(30, 0.01)] if args.quick else [(10, 0.01), (30, 0.01), (100, 0.01), (30, 0.003)]
+        plan += [("pymunk", it, dt) for it, dt in pm]
+        for code, a1, a2 in plan:
+            tag = (f"lig_K{a1:g}_kt{a2:.3f}" if code == "liggghts" else f"pym_it{a1}_dt{a2:g}")
+            f = out / "runs" / f"{name}__{tag}.json"
+            if f.exists():
+                rec = json.loads(f.read_text())
+                print(f"[skip] {name} {tag}", file=sys.stderr)
+            else:
+                print(f"[run ] {name} {tag} ...", file=sys.stderr, flush=True)
+                t = time.perf_counter()
+                try:
+                    soft, info = (_run_liggghts(p, a1, a2, work) if code == "liggghts"
+                                  else _run_pymunk(p, a1, a2))
+                    m = _measure(p, soft, info["top"], S_cache)
+                except Exception as exc:
+                    info, m = {}, {"error": f"{type(exc).__name__}: {exc}",
+                                   "relative_distance": float("nan")}
+                rec = {"packing": name, "mu": p.mu, "code": code, "tag": tag,
+                       **{k: v for k, v in info.items() if isinstance(v, (int, float, str, bool))},
+                       **m, "total_wall_s": time.perf_counter() - t}
+                tmp = f.with_suffix(".tmp")
+                tmp.write_text(json.dumps(rec, indent=1, default=float))
+                tmp.replace(f)
+            print(f"  {tag}: rel. distance {rec.get('relative_distance')}, max overlap "
+                  f"{rec.get('max_overlap')}, wall {rec.get('wall_time_s')}", file=sys.stderr)
+            rows.append(rec)
+    keys = ["packing", "mu", "code", "tag", "K", "kt_ratio", "iterations", "dt", "top",
+            "converged", "steps", "wall_time_s", "relative_distance", "max_violation_rel",
+            "max_overlap", "unmatched_contacts", "max_unmatched_force_rel", "lost_contacts",
+            "max_lost_rigid_force_rel", "error"]
+    with open(out / ".table.csv.tmp", "w", newline="") as fh:
+        w = csv.DictWriter(fh, keys, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    (out / ".table.csv.tmp").replace(out / "table.csv")
+    fits = {}
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(5, 4))
+    for name in sorted({r["packing"] for r in rows}):
+        lig = [r for r in rows if r["packing"] == name and r["code"] == "liggghts"
+               and abs(r.get("kt_ratio", 0) - 2 / 7) < 1e-9 and np.isfinite(r["relative_distance"])]
+        if len(lig) >= 2:
+            K = np.array([r["K"] for r in lig])
+            d = np.array([r["relative_distance"] for r in lig])
+            ok = d > 0
+            slope = np.polyfit(np.log10(K[ok]), np.log10(d[ok]), 1)[0] if ok.sum() >= 2 else np.nan
+            fits[name] = slope
+            ax.loglog(K, d, "o-", label=f"{name} (slope {slope:.2f})")
+    ax.set_xlabel("kn / (<Fn>/R)")
+    ax.set_ylabel("relative distance to S")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    for ext in ("png", "pdf"):
+        fig.savefig(out / f"distance_vs_kn.{ext}")
+    (out / "fits.json").write_text(json.dumps(fits, indent=1))
+    print(json.dumps({"fitted_exponents": fits, "table": str(out / "table.csv")}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
