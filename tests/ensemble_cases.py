@@ -113,3 +113,38 @@ def lattice_in_box(mu):
     prob = build_problem(p, interior, (), "test", support_mask=~interior,
                          rattlers=np.zeros(7, bool))
     return p, prob
+
+
+def lattice_rows(k, rows, mu, W=1.0):
+    """Rows of unit disks in the grooves of a fixed support row (triangular
+    lattice): supports at (2i, 0), i = 0..k; row q (1-based) holds k+1-q disks
+    at y = q sqrt(3). Weight W per disk. Kinematically rigid (unlike a pyramid
+    on a floor, which can roll apart), bounded for mu < cot 30 deg.
+    Returns (packing, problem) with the Chebyshev centre as the jammed state."""
+    from forcespace.polytope import analyze
+
+    xs = [2.0 * i for i in range(k + 1)]
+    ys = [0.0] * (k + 1)
+    for q in range(1, rows + 1):
+        for i in range(k + 1 - q):
+            xs.append(2.0 * i + q)
+            ys.append(q * np.sqrt(3.0))
+    n = len(xs)
+    sup = np.zeros(n, bool)
+    sup[:k + 1] = True
+    a, b = [], []
+    for i in range(n):
+        for j in range(i + 1, n):
+            if sup[i] and sup[j]:
+                continue
+            if abs(np.hypot(xs[j] - xs[i], ys[j] - ys[i]) - 2.0) < 1e-9:
+                a.append(i)
+                b.append(j)
+    m = len(a)
+    p = _packing(xs, ys, np.ones(n), a, b, np.ones(m), np.zeros(m), mu, gravity=W / np.pi)
+    kw = dict(support_mask=sup, rattlers=np.zeros(n, bool))
+    prob = build_problem(p, ~sup, (), "test", **kw)
+    an = analyze(prob, ranges=False)
+    fn, ft = prob.to_packing_forces(an.centre)
+    p = p.with_forces(fn, ft)
+    return p, build_problem(p, ~sup, (), "test", **kw)

@@ -1,0 +1,92 @@
+"""eta, indeterminacy domains, elementary clusters, difference fields, CLI."""
+import json
+
+import numpy as np
+import pytest
+
+from ensemble_cases import grooves, pyramid
+from forcespace import measures
+from forcespace.errors import InputError
+from forcespace.polytope import analyze
+
+
+def test_eta_by_hand():
+    # one contact, two samples (1, 0) and (1, 0.2): mean (1, 0.1), dF = 0.1
+    X = np.array([[1.0, 0.0], [1.0, 0.2]])
+    mag = (1.0 + np.sqrt(1.04)) / 2
+    assert np.isclose(measures.eta(X), 0.1 / mag)
+    # two contacts: the second never moves; eta averages dF and |F| over contacts
+    X2 = np.array([[1.0, 0.0, 3.0, 0.0], [1.0, 0.2, 3.0, 0.0]])
+    assert np.isclose(measures.eta(X2), (0.1 / 2) / ((mag + 3.0) / 2))
+    assert measures.eta(np.tile(X2[:1], (5, 1))) == 0.0
+    with pytest.raises(InputError):
+        measures.eta(np.array([[np.nan, 0.0]]))
+
+
+def test_grooves_are_two_elementary_clusters():
+    p, prob = grooves([0.4, 0.6, 0.5], 0.2)
+    an = analyze(prob, ranges=False)
+    doms = measures.domains(prob, an)
+    assert len(doms) == 3 and all(d.elementary and d.dim == 1 for d in doms)
+    assert sorted(tuple(d.contacts) for d in doms) == [(0, 1), (2, 3), (4, 5)]
+    assert sorted(int(d.disks[0]) for d in doms) == [0, 3, 6]
+
+
+def test_frictionless_grooves_have_no_domains():
+    _, prob = grooves([0.4, 0.6], 0.0)
+    an = analyze(prob, ranges=False)
+    assert an.dim_S == 0 and measures.domains(prob, an) == []
+    assert measures.varying_contacts(an).size == 0
+
+
+def test_pyramid_is_one_domain_with_dim_S():
+    _, prob = pyramid(4, 0.5)
+    an = analyze(prob, ranges=False)
+    doms = measures.domains(prob, an)
+    assert sum(d.dim for d in doms) == an.dim_S == 14
+    assert len(doms) == 1 and not doms[0].elementary
+
+
+def test_difference_field_and_centre_distance():
+    p, prob = grooves([0.4], 0.2)
+    an = analyze(prob)
+    x1 = an.centre
+    x2 = x1.copy()
+    x2[1] += 0.01
+    x2[3] -= 0.01
+    f = measures.difference_field(p, prob, x1, x2)
+    assert f["segments"].shape == (2, 2, 2) and np.allclose(f["dft"], [0.01, -0.01])
+    assert np.allclose(np.linalg.norm(f["dF"], axis=1), 0.01)
+    ell, l0, lbar = measures.distance_from_centre(np.array([x1, x2]), x1)
+    assert np.isclose(l0, np.linalg.norm(x2 - x1) / 2) and np.isclose(lbar, l0)
+
+
+def test_cli_analyze_sample_ensemble(tmp_path, capsys):
+    from forcespace.cli import main
+    from forcespace.packing_file import write_packing
+
+    p, prob = pyramid(3, 0.6)
+    pack = tmp_path / "p.h5"
+    write_packing(p, pack)
+    assert main(["analyze", str(pack), "--full", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for k in ("n_interior", "n_contacts", "degree_of_indeterminacy", "dim_S", "bounded",
+              "feasible", "n_sliding", "n_domains", "n_elementary_clusters"):
+        assert k in out
+    assert out["n_interior"] == 6 and out["feasible"] and out["bounded"]
+    assert out["degree_of_indeterminacy"] == 2 * out["n_contacts"] - 3 * 6
+    ens = tmp_path / "har.h5"
+    args = ["sample", str(pack), "--full", "--sampler", "hit-and-run", "-n", "12",
+            "-o", str(ens), "--quiet"]
+    assert main(args) == 0
+    assert main(args[:6] + ["24"] + args[7:]) == 0          # rerun with more: continues
+    assert main(["ensemble", str(ens), "--json"]) == 0
+    e = json.loads(capsys.readouterr().out)
+    assert e["n_samples"] == 24 and e["sampler"] == "hit-and-run" and e["eta"] > 0
+    assert e["max_violation"] <= 1e-9
+    # a pyramid on a floor is a mechanism (its base can roll apart): the relax
+    # walk finds a moving solution after a kick and must say so, not write junk
+    assert main(["sample", str(pack), "--full", "--sampler", "relax", "-n", "5",
+                 "-o", str(tmp_path / "r.h5"), "--quiet"]) == 2
+    assert "stalled" in capsys.readouterr().err
+    assert main(["analyze", str(tmp_path / "missing.h5")]) == 2

@@ -1,0 +1,112 @@
+"""Both samplers: every sample in S, extremes reach the LP ranges, uniformity, resume, refusal."""
+import numpy as np
+import pytest
+from scipy import stats
+
+from ensemble_cases import groove_interval, grooves, lattice_in_box, lattice_rows
+from forcespace import ensemble_file as ef
+from forcespace import hit_and_run as har
+from forcespace import relax_sampler as rs
+from forcespace.errors import InputError
+from forcespace.polytope import analyze
+
+THETAS, MU = [np.pi / 6, np.pi / 5], 0.3
+
+
+def _in_S(prob, X, tol):
+    G, _, _ = prob.inequalities()
+    for x in X:
+        assert np.abs(prob.A @ x - prob.b).max() <= tol * prob.force_scale
+        assert (G @ x).max() <= tol * prob.force_scale          # Coulomb (implies fn >= 0)
+        assert x[0::2].min() >= -tol * prob.force_scale
+
+
+def test_hit_and_run_is_uniform_on_a_rectangle(tmp_path):
+    """Two independent grooves: S is a rectangle in (s1, s2) (dim 2). Marginals
+    must be uniform, and u1 + u2 triangular (joint uniformity)."""
+    _, prob = grooves(THETAS, MU)
+    out = tmp_path / "h.h5"
+    res = har.sample(prob, 600, out, seed=11, thin=20)
+    X = ef.read(out).samples
+    assert res["max_violation"] <= har.MAX_VIOLATION
+    _in_S(prob, X, 1e-9)
+    u = []
+    for k, th in enumerate(THETAS):
+        lo, hi = groove_interval(th, MU)
+        u.append((X[:, 4 * k + 1] - lo) / (hi - lo))
+        assert stats.kstest(u[-1], "uniform").pvalue > 0.01
+    z = u[0] + u[1]
+    tri = lambda v: np.where(v <= 1, v**2 / 2, 1 - (2 - v) ** 2 / 2)  # noqa: E731
+    assert stats.kstest(z, tri).pvalue > 0.01
+    assert res["rhat_sqdev"] < 1.1
+
+
+def test_hit_and_run_detects_a_wrong_shape():
+    """The same statistic must reject a non-uniform sample (the test can fail)."""
+    rng = np.random.default_rng(0)
+    u = rng.beta(1.3, 1.0, size=600)                  # mildly non-uniform
+    assert stats.kstest(u, "uniform").pvalue < 0.01
+
+
+@pytest.mark.parametrize("sampler", ["hit-and-run", "relax"])
+def test_samples_in_S_and_extremes_reach_lp_ranges(tmp_path, sampler):
+    _, prob = lattice_rows(4, 2, 0.5)                # dim S = 17
+    an = analyze(prob)
+    assert an.dim_S == 17
+    out = tmp_path / "e.h5"
+    if sampler == "relax":
+        res = rs.sample(prob, 150, out, seed=1, tol=1e-9)
+        tol = 1e-9
+    else:
+        res = har.sample(prob, 300, out, seed=1)
+        tol = har.MAX_VIOLATION
+    X = ef.read(out).samples
+    assert res["max_violation"] <= tol
+    _in_S(prob, X, tol)
+    lo, hi = an.fn_range[:, 0], an.fn_range[:, 1]
+    # inside the LP ranges, and covering a good part of them
+    assert np.all(X[:, 0::2] >= lo - 1e-9) and np.all(X[:, 0::2] <= hi + 1e-9)
+    cover = (X[:, 0::2].max(0) - X[:, 0::2].min(0)) / (hi - lo)
+    assert np.median(cover) > 0.3
+
+
+def test_relax_reaches_both_ends_of_a_groove(tmp_path):
+    _, prob = grooves(THETAS, MU)
+    an = analyze(prob)
+    out = tmp_path / "r.h5"
+    rs.sample(prob, 200, out, seed=3)
+    X = ef.read(out).samples
+    _in_S(prob, X, 1e-9)
+    w = an.ft_range[:, 1] - an.ft_range[:, 0]
+    assert np.all((X[:, 1::2].min(0) - an.ft_range[:, 0]) / w < 0.02)
+    assert np.all((an.ft_range[:, 1] - X[:, 1::2].max(0)) / w < 0.02)
+
+
+@pytest.mark.parametrize("mod", [har, rs])
+def test_resume_continues_the_same_walk(tmp_path, mod):
+    _, prob = grooves(THETAS, MU)
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    mod.sample(prob, 30, a, seed=5, checkpoint_every=7)
+    mod.sample(prob, 30, b, seed=5, checkpoint_every=7, max_seconds=0.0)   # "killed" early
+    first = ef.read(b).n_samples
+    assert 0 < first < 30
+    mod.sample(prob, 30, b, seed=5, checkpoint_every=7)                    # rerun: continues
+    Xa, Xb = ef.read(a).samples, ef.read(b).samples
+    assert Xb.shape == (30, 8)
+    assert np.array_equal(Xa, Xb)
+
+
+def test_resume_refuses_another_run(tmp_path):
+    _, prob = grooves(THETAS, MU)
+    out = tmp_path / "a.h5"
+    har.sample(prob, 5, out, seed=5)
+    with pytest.raises(InputError, match="another"):
+        har.sample(prob, 10, out, seed=6)
+
+
+@pytest.mark.parametrize("mod", [har, rs])
+def test_unbounded_S_is_never_sampled(tmp_path, mod):
+    _, prob = lattice_in_box(0.3)
+    with pytest.raises(InputError, match="unbounded"):
+        mod.sample(prob, 5, tmp_path / "u.h5")
+    assert not (tmp_path / "u.h5").exists()
