@@ -1,0 +1,65 @@
+"""CLI commands for packings: ``pack``, ``info``, ``draw``."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .cli import print_json
+
+
+def register(sub):
+    p = sub.add_parser("pack", help="build a jammed packing from a scene file")
+    p.add_argument("scene", help="scene file (TOML), e.g. inputs/paper.toml")
+    p.add_argument("-o", "--output", required=True, help="packing file to write (HDF5)")
+    p.add_argument("--mu", type=float, help="override physics.mu")
+    p.add_argument("--seed", type=int, help="override scene.seed")
+    p.add_argument("--n", type=int, help="override disks.n")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_pack)
+
+    p = sub.add_parser("info", help="summary of a packing file")
+    p.add_argument("packing")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("draw", help="draw a packing and its force network")
+    p.add_argument("packing")
+    p.add_argument("-o", "--output", required=True, help="figure file (.png also writes .pdf)")
+    p.set_defaults(func=cmd_draw)
+
+
+def cmd_pack(args) -> int:
+    from .jamming import build_packing
+    from .packing_file import write_packing
+    from .scene import load_scene
+
+    scene = load_scene(args.scene).with_overrides(
+        **{"physics.mu": args.mu, "scene.seed": args.seed, "disks.n": args.n})
+    packing = build_packing(scene, show_progress=not args.quiet)
+    write_packing(packing, args.output)
+    s = packing.summary()
+    print(f"{Path(args.output)}: {s['n_disks']} disks, {s['n_contacts']} contacts, "
+          f"z = {s['z']:.3f} ({s['n_rattlers']} rattlers), mu = {s['mu']:g}, "
+          f"residual = {s['equilibrium_residual']:.2e}, max overlap = {s['max_overlap']:.2e} R, "
+          f"{s['steps']} steps, {s['wall_seconds']:.1f} s")
+    return 0
+
+
+def cmd_info(args) -> int:
+    from .packing_file import read_packing
+
+    s = read_packing(args.packing).summary()
+    if args.json:
+        print_json(s)
+    else:
+        for k, v in s.items():
+            print(f"{k:>26}: {v}")
+    return 0
+
+
+def cmd_draw(args) -> int:
+    from .draw import draw_packing
+    from .packing_file import read_packing
+
+    draw_packing(read_packing(args.packing), args.output)
+    print(f"wrote {args.output}")
+    return 0

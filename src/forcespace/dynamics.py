@@ -1,0 +1,140 @@
+"""Moreau-Jean time stepping of rigid disks (implicit Euler + NLGS contacts).
+
+Pure numba kernels; the orchestration (jamming detection, progress, files)
+lives in :mod:`forcespace.jamming`. Body layout as in
+:mod:`forcespace.contacts`: disks 0..n-1, then the wall slots. A body's
+inverse masses ``inv_mx, inv_my, inv_i`` are zero in every direction it
+cannot move (fixed walls: all; top plate: x and rotation; disks without
+rotation: inv_i).
+
+One step: detect contacts (gap < margin), warm-start their forces from the
+previous step (matched by body pair), free velocities ``v + dt*F_ext/m``,
+NLGS, then ``x += dt*v`` (implicit Euler). External forces are only those
+the scene asks for: ``fy_ext`` holds gravity and the top-plate load.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .contacts import N_WALL_SLOTS, detect_contacts
+from .nlgs import add_contact_velocities, effective_masses, nlgs_solve
+
+
+@njit(cache=True)
+def warm_start(keys_new, keys_old, rn_old, rt_old):
+    """Forces of the previous step for the contacts that persist (keys sorted)."""
+    m = keys_new.shape[0]
+    rn = np.zeros(m)
+    rt = np.zeros(m)
+    p = 0
+    for k in range(m):
+        while p < keys_old.shape[0] and keys_old[p] < keys_new[k]:
+            p += 1
+        if p < keys_old.shape[0] and keys_old[p] == keys_new[k]:
+            rn[k] = rn_old[p]
+            rt[k] = rt_old[p]
+    return rn, rt
+
+
+@njit(cache=True)
+def contact_arrays(ints, floats, r, n, mu_disk, mu_wall):
+    """Split detection output into kernel arrays.
+
+    Returns a, b, nx, ny, gap, ra, rb, mu, keys (all shape (Nc,)).
+    """
+    m = ints.shape[0]
+    a = ints[:, 0].copy()
+    b = ints[:, 1].copy()
+    nx = floats[:, 0].copy()
+    ny = floats[:, 1].copy()
+    gap = floats[:, 2].copy()
+    ra = np.zeros(m)
+    rb = np.zeros(m)
+    mu = np.empty(m)
+    keys = np.empty(m, dtype=np.int64)
+    nb = n + N_WALL_SLOTS
+    for k in range(m):
+        wall = False
+        if a[k] < n:
+            ra[k] = r[a[k]]
+        else:
+            wall = True
+        if b[k] < n:
+            rb[k] = r[b[k]]
+        else:
+            wall = True
+        mu[k] = mu_wall if wall else mu_disk
+        keys[k] = a[k] * nb + b[k]
+    return a, b, nx, ny, gap, ra, rb, mu, keys
+
+
+@njit(cache=True)
+def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
+              width, periodic, has_bottom, has_top, has_sides, margin,
+              dt, tol, max_sweeps, mu_disk, mu_wall, rotation,
+              keys, rn, rt, nsteps, seed):
+    """Advance ``nsteps`` steps in place.
+
+    Arrays of shape (n+4,): positions x, y, angle th, velocities vx, vy, w,
+    inverse masses, external vertical force fy_ext [F0]. ``keys, rn, rt``:
+    the previous step's contacts (sorted keys) and forces for warm starting.
+
+    Returns (keys, rn, rt, stats) with the last step's contacts and ``stats``
+    of shape (8,): total sweeps, max sweeps in a step, max final relative
+    change, normal updates, tangential updates, max kinetic energy per disk (disks with a loaded contact only),
+    max |v_top|, steps whose NLGS hit the sweep cap.
+    """
+    stats = np.zeros(8)
+    nb = n + N_WALL_SLOTS
+    mass = np.zeros(nb)
+    inertia = np.zeros(nb)
+    for i in range(n):
+        mass[i] = 1.0 / inv_mx[i]
+        if inv_i[i] > 0.0:
+            inertia[i] = 1.0 / inv_i[i]
+    for step in range(nsteps):
+        ints, floats = detect_contacts(x, y, r, n, width, periodic,
+                                       has_bottom, has_top, has_sides, margin)
+        a, b, nx, ny, gap, ra, rb, mu, new_keys = contact_arrays(ints, floats, r, n,
+                                                                 mu_disk, mu_wall)
+        rn, rt = warm_start(new_keys, keys, rn, rt)
+        keys = new_keys
+        mn, mt = effective_masses(a, b, nx, ny, ra, rb, inv_mx, inv_my, inv_i)
+        for i in range(nb):
+            if fy_ext[i] != 0.0:  # only the forces the scene asks for
+                vy[i] += dt * fy_ext[i] * inv_my[i]
+        add_contact_velocities(a, b, nx, ny, ra, rb, rn, rt, inv_mx, inv_my, inv_i, dt,
+                               vx, vy, w)
+        sw, rel, nn, ntg = nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt,
+                                      vx, vy, w, inv_mx, inv_my, inv_i, dt, tol,
+                                      max_sweeps, (seed + 7919 * step) % 2147483647)
+        stats[0] += sw
+        stats[1] = max(stats[1], sw)
+        stats[2] = max(stats[2], rel)
+        stats[3] += nn
+        stats[4] += ntg
+        if sw >= max_sweeps and rel > tol:
+            stats[7] += 1
+        # kinetic energy of the disks that touch something: a free-flying rattler
+        # (zero gravity) keeps its speed forever and does not stop jamming
+        loaded = np.zeros(nb, dtype=np.bool_)
+        for k in range(a.shape[0]):
+            if rn[k] > 0.0:
+                loaded[a[k]] = True
+                loaded[b[k]] = True
+        ke = 0.0
+        for i in range(n):
+            x[i] += dt * vx[i]
+            y[i] += dt * vy[i]
+            if rotation:
+                th[i] += dt * w[i]
+            if loaded[i]:
+                ke += 0.5 * mass[i] * (vx[i] * vx[i] + vy[i] * vy[i]) \
+                    + 0.5 * inertia[i] * w[i] * w[i]
+            if periodic:
+                x[i] -= width * np.floor(x[i] / width)
+        y[n + 1] += dt * vy[n + 1]
+        stats[5] = max(stats[5], ke / n)
+        stats[6] = max(stats[6], abs(vy[n + 1]))
+    return keys, rn, rt, stats

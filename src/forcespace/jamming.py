@@ -1,0 +1,289 @@
+"""The paper's packing protocol: loose start, compression until jammed, static solve.
+
+Orchestration only (numpy, progress, stopping rules); the physics is in the
+numba kernels of :mod:`forcespace.dynamics` and :mod:`forcespace.nlgs`.
+
+1. Radii uniform in [radius_min, radius_max]; random sequential placement of
+   non-overlapping disks at ``box.initial_packing_fraction``.
+2. Contact dynamics under the scene's loads (top-plate force, gravity) until
+   the kinetic energy per disk and the top-plate speed stay below their
+   thresholds for ``jamming.window`` consecutive steps.
+3. Static solve: positions fixed, velocities zeroed, pairs with gap below
+   ``jamming.contact_gap_tol`` taken as closed contacts (gap set to 0), NLGS
+   until the relative equilibrium residual of every disk and the top plate
+   is at most ``jamming.static_tolerance``.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .contacts import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, detect_contacts
+from .dynamics import contact_arrays, run_steps
+from .errors import NumericalError
+from .nlgs import add_contact_velocities, effective_masses, nlgs_solve
+from .packing import Packing
+from .progress import progress
+from .scene import Scene
+
+
+@dataclass
+class Bodies:
+    """Body arrays of the kernels, shape (n+4,) each (disks, then wall slots)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    th: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    w: np.ndarray
+    r: np.ndarray          # (n,)
+    inv_mx: np.ndarray
+    inv_my: np.ndarray
+    inv_i: np.ndarray
+    fy_ext: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return self.r.shape[0]
+
+
+def random_radii(scene: Scene, rng) -> np.ndarray:
+    """Radii uniform in [radius_min, radius_max], shape (n,) [R]."""
+    return rng.uniform(scene["disks.radius_min"], scene["disks.radius_max"], scene["disks.n"])
+
+
+def loose_start(scene: Scene, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Random sequential placement of non-overlapping disks.
+
+    Returns x, y, r (n,) and the box height [R] at the scene's initial packing
+    fraction. Disks are placed largest first; x is periodic if the scene says so.
+    """
+    r = np.sort(random_radii(scene, rng))[::-1].copy()
+    width = scene["box.width"]
+    periodic = scene["box.periodic_x"]
+    height = np.pi * (r**2).sum() / (width * scene["box.initial_packing_fraction"])
+    height = max(height, 2.0 * r.max() + 1e-9)
+    x = np.empty_like(r)
+    y = np.empty_like(r)
+    for i, ri in enumerate(r):
+        for _ in range(100000):
+            xi = rng.uniform(0, width) if periodic else rng.uniform(ri, width - ri)
+            yi = rng.uniform(ri, height - ri)
+            dx = x[:i] - xi
+            if periodic:
+                dx -= width * np.round(dx / width)
+            if i == 0 or (np.hypot(dx, y[:i] - yi) - r[:i] - ri).min() > 0:
+                x[i], y[i] = xi, yi
+                break
+        else:
+            raise NumericalError(
+                f"could not place disk {i} without overlap at initial packing fraction "
+                f"{scene['box.initial_packing_fraction']}: lower box.initial_packing_fraction")
+    return x, y, r, height
+
+
+def make_bodies(scene: Scene, x, y, r, height) -> Bodies:
+    """Kernel body arrays for disks and walls; only the scene's physics is switched on."""
+    n = r.shape[0]
+    nb = n + N_WALL_SLOTS
+    m = scene["disks.density"] * np.pi * r**2
+    inv_mx = np.zeros(nb)
+    inv_my = np.zeros(nb)
+    inv_i = np.zeros(nb)
+    fy = np.zeros(nb)
+    inv_mx[:n] = inv_my[:n] = 1.0 / m
+    if scene.rotation:
+        inv_i[:n] = 1.0 / (0.5 * m * r**2)
+    if scene["physics.gravity"] > 0:
+        fy[:n] = -m * scene["physics.gravity"]
+    X = np.zeros(nb)
+    Y = np.zeros(nb)
+    X[:n], Y[:n] = x, y
+    Y[n + SLOT_BOTTOM] = 0.0
+    if scene["plates.top"] == "load":
+        Y[n + SLOT_TOP] = height
+        inv_my[n + SLOT_TOP] = 1.0 / scene["plates.top_mass"]
+        fy[n + SLOT_TOP] = -scene["plates.top_force"]
+    return Bodies(X, Y, np.zeros(nb), np.zeros(nb), np.zeros(nb), np.zeros(nb), r.copy(),
+                  inv_mx, inv_my, inv_i, fy)
+
+
+def _flags(scene: Scene):
+    return (bool(scene["box.periodic_x"]), scene["plates.bottom"] == "fixed",
+            scene["plates.top"] == "load", not scene["box.periodic_x"])
+
+
+def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=None) -> dict:
+    """Run contact dynamics until jammed (in place). Returns solver statistics.
+
+    Raises NumericalError if the state becomes non-finite or max_steps is reached.
+    """
+    periodic, has_bottom, has_top, has_sides = _flags(scene)
+    window = scene["jamming.window"]
+    ke_tol = scene["jamming.kinetic_energy_tol"] * _energy_scale(scene, bodies)
+    v_tol = scene["jamming.plate_velocity_tol"]
+    keys = np.zeros(0, dtype=np.int64)
+    rn = np.zeros(0)
+    rt = np.zeros(0)
+    totals = np.zeros(8)
+    steps = 0
+    t0 = time.perf_counter()
+    bar = progress(total=scene["jamming.max_steps"], desc="compressing", unit="step",
+                   disable=not show_progress)
+    try:
+        while steps < scene["jamming.max_steps"]:
+            keys, rn, rt, st = run_steps(
+                bodies.x, bodies.y, bodies.th, bodies.vx, bodies.vy, bodies.w, bodies.r,
+                bodies.n, bodies.inv_mx, bodies.inv_my, bodies.inv_i, bodies.fy_ext,
+                scene["box.width"], periodic, has_bottom, has_top, has_sides,
+                scene["solver.contact_margin"], scene["solver.dt"], scene["solver.tolerance"],
+                scene["solver.max_sweeps"], scene["physics.mu"], scene["physics.plate_mu"],
+                scene.rotation, keys, rn, rt, window, seed + steps)
+            steps += window
+            totals[0] += st[0]
+            totals[1] = max(totals[1], st[1])
+            totals[3:5] += st[3:5]
+            totals[7] += st[7]
+            if not (np.isfinite(bodies.x).all() and np.isfinite(bodies.y).all()):
+                raise NumericalError(f"non-finite positions after {steps} steps; "
+                                     "reduce solver.dt")
+            bar.update(window)
+            bar.set_postfix(ke=f"{st[5]:.1e}", v_top=f"{st[6]:.1e}",
+                            sweeps=f"{st[0] / window:.0f}", refresh=False)
+            if log is not None:
+                log.append((steps, st[5], st[6], st[0] / window, st[2]))
+            if st[5] <= ke_tol and st[6] <= v_tol:
+                break
+        else:
+            raise NumericalError(f"not jammed after jamming.max_steps = {steps} steps "
+                                 f"(last kinetic energy per disk {st[5]:.3g}, plate speed "
+                                 f"{st[6]:.3g}); raise jamming.max_steps or the tolerances")
+    finally:
+        bar.close()
+    return {"steps": steps, "sweeps_total": int(totals[0]), "sweeps_max_step": int(totals[1]),
+            "normal_updates": int(totals[3]), "tangential_updates": int(totals[4]),
+            "steps_at_sweep_cap": int(totals[7]),
+            "compress_seconds": time.perf_counter() - t0}
+
+
+def _energy_scale(scene: Scene, bodies: Bodies) -> float:
+    """F0*R: the top-plate load, or the mean disk weight, times the mean radius."""
+    rbar = float(bodies.r.mean())
+    if scene["plates.top"] == "load":
+        return scene["plates.top_force"] * rbar
+    m = scene["disks.density"] * np.pi * bodies.r**2
+    return float(m.mean() * scene["physics.gravity"]) * rbar
+
+
+def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True):
+    """Equilibrium forces on the frozen jammed configuration.
+
+    Returns the kernel contact arrays (a, b, nx, ny, gap, image), the forces
+    (rn, rt), and statistics. The contacts are all pairs with gap at most
+    ``jamming.contact_gap_tol``; their gaps are treated as closed.
+    """
+    periodic, has_bottom, has_top, has_sides = _flags(scene)
+    n = bodies.n
+    ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r, n, scene["box.width"],
+                                   periodic, has_bottom, has_top, has_sides,
+                                   scene["jamming.contact_gap_tol"])
+    a, b, nx, ny, gap, ra, rb, mu, keys = contact_arrays(
+        ints, floats, bodies.r, n, scene["physics.mu"], scene["physics.plate_mu"])
+    image = ints[:, 2].copy()
+    mn, mt = effective_masses(a, b, nx, ny, ra, rb, bodies.inv_mx, bodies.inv_my, bodies.inv_i)
+    closed = np.zeros_like(gap)
+    rn = np.zeros(a.shape[0])
+    rt = np.zeros(a.shape[0])
+    tol = scene["jamming.static_tolerance"]
+    cap = scene["jamming.static_max_sweeps"]
+    chunk = 100
+    sweeps = 0
+    n_tang = 0
+    residual = np.inf
+    t0 = time.perf_counter()
+    packing_of = _packing_view(scene, bodies, a, b, nx, ny, gap, image)
+    bar = progress(total=None, desc="static solve", unit="sweep", disable=not show_progress)
+    try:
+        while sweeps < cap:
+            # velocities recomputed from the forces each chunk (no drift): v = dt M^-1 F_net
+            vx = np.zeros(n + N_WALL_SLOTS)
+            vy = bodies.fy_ext * bodies.inv_my
+            w = np.zeros(n + N_WALL_SLOTS)
+            add_contact_velocities(a, b, nx, ny, ra, rb, rn, rt, bodies.inv_mx, bodies.inv_my,
+                                   bodies.inv_i, 1.0, vx, vy, w)
+            sw, _rel, _nn, ntg = nlgs_solve(a, b, nx, ny, ra, rb, closed, mu, mn, mt, rn, rt,
+                                            vx, vy, w, bodies.inv_mx, bodies.inv_my,
+                                            bodies.inv_i, 1.0, 0.0, min(chunk, cap - sweeps),
+                                            seed + sweeps)
+            sweeps += sw
+            n_tang += ntg
+            residual = packing_of(rn, rt).equilibrium_residual()
+            if not np.isfinite(residual):
+                raise NumericalError("non-finite forces in the static solve")
+            bar.update(sw)
+            bar.set_postfix(residual=f"{residual:.2e}", refresh=False)
+            if residual <= tol:
+                break
+            chunk = min(2 * chunk, 20000)
+    finally:
+        bar.close()
+    stats = {"static_sweeps": sweeps, "static_tangential_updates": n_tang,
+             "static_seconds": time.perf_counter() - t0, "static_residual": residual}
+    return packing_of(rn, rt), stats
+
+
+def _packing_view(scene: Scene, bodies: Bodies, a, b, nx, ny, gap, image):
+    """A function (rn, rt) -> Packing for the frozen configuration and contacts."""
+    n = bodies.n
+    code = np.array([-1, -2, -3, -4])
+    pa = np.where(a < n, a, code[np.clip(a - n, 0, 3)])
+    pb = np.where(b < n, b, code[np.clip(b - n, 0, 3)])
+    x, y, r = bodies.x[:n].copy(), bodies.y[:n].copy(), bodies.r
+    normal = np.column_stack([nx, ny])
+    # contact point: on a's surface pushed half the gap toward b; walls: on the disk
+    point = np.empty((a.shape[0], 2))
+    da = a < n
+    point[da, 0] = x[a[da]] + (r[a[da]] + 0.5 * gap[da]) * nx[da]
+    point[da, 1] = y[a[da]] + (r[a[da]] + 0.5 * gap[da]) * ny[da]
+    wa = ~da  # a is a wall: b is a disk
+    point[wa, 0] = x[b[wa]] - r[b[wa]] * nx[wa]
+    point[wa, 1] = y[b[wa]] - r[b[wa]] * ny[wa]
+    if scene["box.periodic_x"]:
+        point[:, 0] -= scene["box.width"] * np.floor(point[:, 0] / scene["box.width"])
+    y_top = bodies.y[n + SLOT_TOP] if scene["plates.top"] == "load" else np.nan
+    y_bot = bodies.y[n + SLOT_BOTTOM] if scene["plates.bottom"] == "fixed" else np.nan
+
+    def make(rn, rt) -> Packing:
+        return Packing(x=x, y=y, r=r, width=scene["box.width"],
+                       periodic_x=scene["box.periodic_x"], y_bottom=float(y_bot),
+                       y_top=float(y_top),
+                       top_force=scene["plates.top_force"] if scene["plates.top"] == "load" else 0.0,
+                       gravity=scene["physics.gravity"], density=scene["disks.density"],
+                       mu=scene["physics.mu"], plate_mu=scene["physics.plate_mu"],
+                       a=pa, b=pb, normal=normal, point=point, image=image, gap=gap,
+                       fn=rn.copy(), ft=rt.copy(), seed=scene["scene.seed"],
+                       scene_text=scene.to_toml(), scene_name=scene.name)
+    return make
+
+
+def build_packing(scene: Scene, show_progress=True) -> Packing:
+    """Run the whole protocol for ``scene`` and return the static packing."""
+    seed = scene["scene.seed"]
+    rng = np.random.default_rng(seed)
+    x, y, r, height = loose_start(scene, rng)
+    bodies = make_bodies(scene, x, y, r, height)
+    t0 = time.perf_counter()
+    meta = compress(scene, bodies, seed, show_progress)
+    packing, static = static_solve(scene, bodies, seed, show_progress)
+    meta.update(static)
+    meta["wall_seconds"] = time.perf_counter() - t0
+    meta["rotation"] = bool(scene.rotation)
+    if static["static_residual"] > scene["jamming.static_tolerance"]:
+        raise NumericalError(
+            f"static solve stopped at residual {static['static_residual']:.3g} > "
+            f"jamming.static_tolerance after {static['static_sweeps']} sweeps")
+    packing.meta = meta
+    return packing

@@ -1,0 +1,255 @@
+"""Scene files: what a simulation contains and which physics it switches on.
+
+A scene is a TOML file (see ``inputs/``). Every key is listed in ``SCHEMA``
+with its type, default, allowed range and meaning; unknown keys, wrong types
+and out-of-range values are rejected with one line naming the file, the key
+and what is allowed. The physics a scene declares decides what the engine
+runs: friction (``physics.mu``, ``physics.plate_mu``), rotation, gravity,
+plates and periodic x. Nothing else is simulated.
+"""
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+from .errors import InputError
+
+
+@dataclass(frozen=True)
+class Key:
+    type: type
+    default: object
+    check: object  # callable(value, scene_dict) -> None or error text
+    doc: str
+
+
+def _positive(v, _):
+    return None if v > 0 else "must be > 0"
+
+
+def _nonneg(v, _):
+    return None if v >= 0 else "must be >= 0"
+
+
+def _int_at_least(lo):
+    return lambda v, _: None if v >= lo else f"must be an integer >= {lo}"
+
+
+def _fraction(v, _):
+    return None if 0 < v < 0.8 else "must be in (0, 0.8) (a loose random start)"
+
+
+def _small_tol(v, _):
+    return None if 0 < v < 1 else "must be in (0, 1)"
+
+
+def _radius_max(v, d):
+    lo = d["disks.radius_min"]
+    return None if v >= lo else f"must be >= disks.radius_min ({lo})"
+
+
+def _width(v, d):
+    rmax = d["disks.radius_max"]
+    need = 4.0 * rmax + 2.0 * d["solver.contact_margin"]
+    return None if v >= need else (f"must be >= 4 * disks.radius_max + 2 * solver.contact_margin "
+                                   f"= {need:g} (minimum-image convention; larger than the "
+                                   f"largest disk)")
+
+
+def _slice(v, d):
+    return None if v >= 0 else "must be >= 0 (0: no slice recorded)"
+
+
+def _top_mode(v, _):
+    return None if v in ("load", "none") else 'must be "load" or "none"'
+
+
+def _bottom_mode(v, _):
+    return None if v in ("fixed", "none") else 'must be "fixed" or "none"'
+
+
+SCHEMA: dict[str, Key] = {
+    "scene.name": Key(str, "", None, "short name of the scene"),
+    "scene.description": Key(str, "", None, "free text"),
+    "scene.seed": Key(int, 1, _int_at_least(0), "random seed (radii, start positions, solver order)"),
+    "disks.n": Key(int, 200, _int_at_least(1), "number of disks"),
+    "disks.radius_min": Key(float, 1.0, _positive, "smallest radius [R]"),
+    "disks.radius_max": Key(float, 2.0, _radius_max, "largest radius [R]; radii uniform in [min, max]"),
+    "disks.density": Key(float, 1.0, _positive, "2-D density; disk mass = density*pi*r^2"),
+    "box.width": Key(float, 42.0, _width, "box width along x [R]"),
+    "box.periodic_x": Key(bool, True, None, "periodic along x (else fixed side walls)"),
+    "box.initial_packing_fraction": Key(float, 0.35, _fraction,
+                                        "area fraction of the random loose start"),
+    "physics.mu": Key(float, 0.0, _nonneg, "disk-disk Coulomb friction coefficient"),
+    "physics.plate_mu": Key(float, 0.0, _nonneg, "disk-wall Coulomb friction coefficient"),
+    "physics.gravity": Key(float, 0.0, _nonneg, "gravitational acceleration along -y"),
+    "physics.rotation": Key(str, "auto", lambda v, _: None if v in ("auto", "on", "off") else
+                            'must be "auto", "on" or "off"',
+                            "integrate disk rotation: auto = only when any friction is present"),
+    "plates.bottom": Key(str, "fixed", _bottom_mode, '"fixed" lower plate or "none"'),
+    "plates.top": Key(str, "load", _top_mode, '"load": upper plate under constant force; "none"'),
+    "plates.top_force": Key(float, 1.0, _positive, "downward force on the top plate [F0]"),
+    "plates.top_mass": Key(float, 10.0, _positive, "mass of the top plate [rho R^2]"),
+    "solver.dt": Key(float, 0.02, _positive, "time step"),
+    "solver.tolerance": Key(float, 1e-4, _small_tol,
+                            "relative force change per sweep that ends a time step's NLGS"),
+    "solver.max_sweeps": Key(int, 1000, _int_at_least(1), "sweep cap per time step"),
+    "solver.contact_margin": Key(float, 0.1, _positive,
+                                 "pairs closer than this gap [R] enter the contact list"),
+    "jamming.kinetic_energy_tol": Key(float, 1e-10, _positive,
+                                      "kinetic energy per disk [F0 R] below which it is at rest"),
+    "jamming.plate_velocity_tol": Key(float, 1e-7, _positive,
+                                      "top-plate speed [R per time unit] below which it is at rest"),
+    "jamming.window": Key(int, 200, _int_at_least(1), "steps both must stay below tolerance"),
+    "jamming.max_steps": Key(int, 400000, _int_at_least(1), "give up after this many steps"),
+    "jamming.static_tolerance": Key(float, 1e-10, _small_tol,
+                                    "relative equilibrium residual of the final static solve"),
+    "jamming.static_max_sweeps": Key(int, 2000000, _int_at_least(1),
+                                     "sweep cap of the final static solve"),
+    "jamming.contact_gap_tol": Key(float, 1e-6, _positive,
+                                   "gap [R] below which a pair is a contact of the packing"),
+    "analysis.slice_height": Key(float, 0.0, _slice,
+                                 "height [R] of the middle slice analysed as in the paper"),
+}
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene: ``values`` maps every SCHEMA key to its value."""
+
+    values: dict
+    source: str
+    text: str
+
+    def __getitem__(self, key):
+        return self.values[key]
+
+    @property
+    def name(self) -> str:
+        return self.values["scene.name"] or Path(self.source).stem
+
+    @property
+    def frictional(self) -> bool:
+        """True when any contact can carry a tangential force."""
+        return self["physics.mu"] > 0 or (self["physics.plate_mu"] > 0 and self.has_walls)
+
+    @property
+    def has_walls(self) -> bool:
+        return (self["plates.bottom"] != "none" or self["plates.top"] != "none"
+                or not self["box.periodic_x"])
+
+    @property
+    def rotation(self) -> bool:
+        """Whether disk rotation is integrated (needs a tangential force to matter)."""
+        mode = self["physics.rotation"]
+        return self.frictional if mode == "auto" else mode == "on"
+
+    def to_toml(self) -> str:
+        """The complete effective scene (every key, defaults filled in) as TOML.
+
+        This is what packing files store, so a packing can be rebuilt exactly.
+        """
+        lines = [f"# effective scene resolved from {self.source}"]
+        section = None
+        for key, value in self.values.items():
+            sec, name = key.split(".")
+            if sec != section:
+                lines.append(f"\n[{sec}]")
+                section = sec
+            if isinstance(value, bool):
+                text = "true" if value else "false"
+            elif isinstance(value, str):
+                text = '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+            else:
+                text = repr(value)
+            lines.append(f"{name} = {text}")
+        return "\n".join(lines) + "\n"
+
+    def with_overrides(self, **overrides) -> "Scene":
+        """A re-validated copy with ``{"physics.mu": 0.5, ...}`` replaced (None = keep)."""
+        data = {k: v for k, v in overrides.items() if v is not None}
+        text = self.text
+        if data:
+            text += "\n# command-line overrides: " + ", ".join(f"{k}={v}" for k, v in data.items())
+        return validate({**self.values, **data}, f"{self.source} (with overrides)", text)
+
+
+def _type_ok(value, want) -> bool:
+    if want is float:
+        return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if want is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    return isinstance(value, want)
+
+
+_TYPE_NAMES = {float: "a finite number", int: "an integer", bool: "true or false", str: "a string"}
+
+
+def validate(flat: dict, source: str, text: str = "") -> Scene:
+    """Check a flat ``{"section.key": value}`` mapping against SCHEMA."""
+    for key in flat:
+        if key not in SCHEMA:
+            section = key.split(".")[0]
+            near = sorted(k for k in SCHEMA if k.startswith(section + "."))
+            allowed = ("allowed keys here: " + ", ".join(near)) if near else \
+                ("allowed sections: " + ", ".join(sorted({k.split('.')[0] for k in SCHEMA})))
+            raise InputError(source, key, f"unknown key; {allowed}")
+    values = {k: flat.get(k, spec.default) for k, spec in SCHEMA.items()}
+    for key, spec in SCHEMA.items():
+        v = values[key]
+        if not _type_ok(v, spec.type):
+            raise InputError(source, key, f"must be {_TYPE_NAMES[spec.type]} ({spec.doc})", got=v)
+        if spec.type is float:
+            values[key] = v = float(v)
+    for key, spec in SCHEMA.items():  # range checks after types: they may read other keys
+        msg = spec.check(values[key], values) if spec.check else None
+        if msg:
+            raise InputError(source, key, f"{msg} ({spec.doc})", got=values[key])
+    if values["plates.top"] == "none" and values["physics.gravity"] == 0:
+        raise InputError(source, "plates.top", 'with physics.gravity = 0 a "load" top plate is '
+                         "needed to compress the disks", got="none")
+    if values["physics.gravity"] > 0 and values["plates.bottom"] == "none":
+        raise InputError(source, "plates.bottom", 'must be "fixed" when gravity is on', got="none")
+    return Scene(values=values, source=str(source), text=text)
+
+
+def _flatten(data: dict, source: str) -> dict:
+    flat = {}
+    for section, body in data.items():
+        if not isinstance(body, dict):
+            raise InputError(source, section, "must be a [section] table; sections: "
+                             + ", ".join(sorted({k.split('.')[0] for k in SCHEMA})))
+        for key, value in body.items():
+            if isinstance(value, dict):
+                raise InputError(source, f"{section}.{key}", "nested tables are not allowed")
+            flat[f"{section}.{key}"] = value
+    return flat
+
+
+def load_scene(path) -> Scene:
+    """Read and validate a scene file; every problem is an :class:`InputError`."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(p, "(file)", "does not exist or is not a file")
+    text = p.read_text()
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(p, "(syntax)", f"is not valid TOML: {exc}") from None
+    return validate(_flatten(data, str(p)), str(p), text)
+
+
+def parse_scene_text(text: str, source: str = "<packing scene>") -> Scene:
+    """Validate scene TOML held in memory (e.g. the copy stored in a packing file)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(source, "(syntax)", f"is not valid TOML: {exc}") from None
+    return validate(_flatten(data, source), source, text)
