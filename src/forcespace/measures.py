@@ -126,11 +126,15 @@ def domains(problem, analysis, tol: float = 1e-9) -> list[Domain]:
     if N is None or N.shape[1] == 0:
         return []
     d = N.shape[1]
-    piv, R = _rref_pivots(N.T, tol * np.abs(N).max())
-    if piv.size != d:
-        raise InputError("domains", "null basis", "numerically rank deficient")
+    # well-conditioned pivot columns (QR with column pivoting), then the
+    # reduced form R = B^-1 N^T whose rows are the fundamental circuits
+    _, _, perm = sla.qr(N.T, mode="economic", pivoting=True)
+    piv = np.sort(perm[:d])
+    R = np.linalg.solve(N.T[:, piv], N.T)
     m = problem.n_contacts
-    support = np.abs(R) > tol * max(np.abs(R).max(), 1e-300)
+    rowmax = np.maximum(np.abs(R).max(axis=1, keepdims=True), 1.0)
+    support = np.abs(R) > tol * rowmax
+    support[np.arange(d), piv] = True
     # union-find over contacts
     parent = np.arange(m)
 

@@ -3,7 +3,7 @@
 S = {x : A x = b, x_fixed = 0, G x <= 0} (see statics.py for the columns and
 rows). Every question here is answered by LPs solved with
 ``scipy.optimize.linprog(method="highs")``; the Euclidean projection onto S is a
-convex QP solved with the HiGHS QP solver bundled inside scipy and then
+convex QP solved exactly by least-distance programming (NNLS) and then
 *polished and verified* by an exact active-set step (see :func:`distance_to_S`).
 
 Tolerances are relative to ``problem.force_scale`` (<Fn>, the mean jammed
@@ -361,45 +361,41 @@ def chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
 # ----------------------------------------------------------------------------
 # Euclidean projection
 # ----------------------------------------------------------------------------
-def _highs_qp(problem: StaticsProblem, xhat):
-    """min 1/2 ||x - xhat||^2 over S with HiGHS' QP solver (scipy's bundled copy)."""
-    from scipy.optimize._highspy import _core as hc  # bundled HiGHS >= 1.5 has QP
+def _ldp_projection(problem: StaticsProblem, xhat):
+    """Euclidean projection of xhat onto S, exactly, by least-distance programming.
+
+    Null-space coordinates x = xa + N y (N orthonormal basis of {A x = 0,
+    fixed columns = 0}) turn the projection into: nearest point to
+    y* = N^T (xhat - xa) of the polytope {M y <= u}, M = G N, u = -G xa.
+    With z = y - y*: min ||z|| s.t. E z >= f, E = -M, f = M y* - u, solved by
+    the Lawson-Hanson LDP algorithm: NNLS on [E^T; f^T] v ~ (0, ..., 0, 1),
+    z = -r[:d] / r[d] with r the NNLS residual (a finite active-set method).
+    """
+    from scipy.optimize import nnls
 
     G, _, _ = problem.inequalities()
-    lo, hi = problem.bounds()
-    m2 = problem.n_columns
-    M = sp.vstack([problem.A, G]).tocsc()
-    M.sort_indices()
-    rlo = np.concatenate([problem.b, np.full(G.shape[0], -np.inf)])
-    rhi = np.concatenate([problem.b, np.zeros(G.shape[0])])
-    inf = hc.kHighsInf
-    lp = hc.HighsLp()
-    lp.num_col_ = m2
-    lp.num_row_ = M.shape[0]
-    lp.col_cost_ = -np.asarray(xhat, float)
-    lp.col_lower_ = np.where(np.isfinite(lo), lo, -inf)
-    lp.col_upper_ = np.where(np.isfinite(hi), hi, inf)
-    lp.row_lower_ = np.where(np.isfinite(rlo), rlo, -inf)
-    lp.row_upper_ = np.where(np.isfinite(rhi), rhi, inf)
-    lp.a_matrix_.format_ = hc.MatrixFormat.kColwise
-    lp.a_matrix_.start_ = M.indptr.astype(np.int32)
-    lp.a_matrix_.index_ = M.indices.astype(np.int32)
-    lp.a_matrix_.value_ = M.data.astype(float)
-    h = hc._Highs()
-    h.setOptionValue("output_flag", False)
-    h.passModel(lp)
-    hess = hc.HighsHessian()
-    hess.dim_ = m2
-    hess.format_ = hc.HessianFormat.kTriangular
-    hess.start_ = np.arange(m2 + 1, dtype=np.int32)
-    hess.index_ = np.arange(m2, dtype=np.int32)
-    hess.value_ = np.ones(m2)
-    h.passHessian(hess)
-    h.run()
-    status = h.modelStatusToString(h.getModelStatus())
-    if status != "Optimal":
-        raise NumericalError(f"HiGHS QP (projection onto S) ended with status {status}")
-    return np.array(h.getSolution().col_value)
+    Eq, rhs = _eq_system(problem)
+    Ed = Eq.toarray()
+    xa = sla.lstsq(Ed, rhs, lapack_driver="gelsd")[0]
+    N = null_basis(Ed)
+    d = N.shape[1]
+    if d == 0:
+        return xa
+    M = np.asarray(G @ N)
+    u = -np.asarray(G @ xa)
+    ystar = N.T @ (np.asarray(xhat, float) - xa)
+    scale = max(problem.force_scale, 1e-300)
+    E = -M
+    f = (M @ ystar - u) / scale                       # work in units of <Fn>
+    Ep = np.vstack([E.T, f[None, :]])
+    e = np.zeros(d + 1)
+    e[-1] = 1.0
+    v, _ = nnls(Ep, e, maxiter=50 * Ep.shape[1])
+    r = Ep @ v - e
+    if abs(r[-1]) < 1e-14:
+        raise NumericalError("projection: the constraints look infeasible (LDP)")
+    z = -r[:d] / r[-1] * scale
+    return xa + N @ (ystar + z)
 
 
 def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 50):
@@ -453,9 +449,11 @@ def distance_to_S(problem: StaticsProblem, x, analysis: PolytopeAnalysis | None 
                   ) -> DistanceResult:
     """Exact Euclidean distance from ``x`` (2m,) to S (see :class:`DistanceResult`).
 
-    Method: HiGHS QP (bundled in scipy) for a near-optimal point, then an exact
-    active-set polish whose KKT conditions are verified (feasibility to round-off,
-    multipliers >= 0). Raises NumericalError if the verification fails, InputError
+    Method: least-distance programming in the null space of the equalities
+    (Lawson-Hanson via scipy's NNLS, a finite active-set method; HiGHS' QP
+    solver cycled on the degenerate Coulomb apexes and was dropped), then an
+    exact active-set polish whose KKT conditions are verified (feasibility to
+    round-off, multipliers >= 0, stationarity residual <= 1e-9). Raises NumericalError if the verification fails, InputError
     for a wrong-shaped or non-finite x, and refuses an infeasible S.
     """
     x = np.asarray(x, float)
@@ -464,14 +462,8 @@ def distance_to_S(problem: StaticsProblem, x, analysis: PolytopeAnalysis | None 
                          f"({problem.n_columns},)", got=getattr(x, "shape", None))
     if analysis is not None and not analysis.feasible:
         raise InputError("distance_to_S", "S", "is empty (infeasible); no distance")
-    try:
-        xq = _highs_qp(problem, x)
-        method = "highs-qp+active-set-polish"
-    except ImportError:  # pragma: no cover - scipy without the bundled HiGHS QP
-        feas, xq, _ = check_feasible(problem)
-        if not feas:
-            raise InputError("distance_to_S", "S", "is empty (infeasible); no distance") from None
-        method = "active-set-from-feasible-point"
+    xq = _ldp_projection(problem, x)
+    method = "null-space LDP (Lawson-Hanson NNLS) + verified active-set polish"
     xn, kkt, ok = _polish(problem, x, xq)
     viol = problem.violation(xn)
     if not ok or viol > 1e-9:
