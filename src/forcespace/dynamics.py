@@ -73,16 +73,17 @@ def contact_arrays(ints, floats, r, n, mu_disk, mu_wall):
 def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
               width, periodic, has_bottom, has_top, has_sides, margin,
               dt, tol, max_sweeps, mu_disk, mu_wall, rotation,
-              keys, rn, rt, nsteps, seed):
+              keys, rn, rt, nsteps, seed, overlap_correction=0.0):
     """Advance ``nsteps`` steps in place.
 
     Arrays of shape (n+4,): positions x, y, angle th, velocities vx, vy, w,
     inverse masses, external vertical force fy_ext [F0]. ``keys, rn, rt``:
     the previous step's contacts (sorted keys) and forces for warm starting.
+    ``overlap_correction``: see :func:`forcespace.nlgs.nlgs_solve`.
 
     Returns (keys, rn, rt, stats) with the last step's contacts and ``stats``
     of shape (8,): total sweeps, max sweeps in a step, max final relative
-    change, normal updates, tangential updates, max kinetic energy per disk (disks with a loaded contact only),
+    change, normal updates, tangential updates, max kinetic energy per disk (free-flying disks in zero gravity excluded),
     max |v_top|, steps whose NLGS hit the sweep cap.
     """
     stats = np.zeros(8)
@@ -90,7 +91,8 @@ def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
     mass = np.zeros(nb)
     inertia = np.zeros(nb)
     for i in range(n):
-        mass[i] = 1.0 / inv_mx[i]
+        if inv_mx[i] > 0.0:  # fixed disks (zero inverse mass) carry no kinetic energy
+            mass[i] = 1.0 / inv_mx[i]
         if inv_i[i] > 0.0:
             inertia[i] = 1.0 / inv_i[i]
     for step in range(nsteps):
@@ -108,7 +110,8 @@ def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
                                vx, vy, w)
         sw, rel, nn, ntg = nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt,
                                       vx, vy, w, inv_mx, inv_my, inv_i, dt, tol,
-                                      max_sweeps, (seed + 7919 * step) % 2147483647)
+                                      max_sweeps, (seed + 7919 * step) % 2147483647,
+                                      overlap_correction)
         stats[0] += sw
         stats[1] = max(stats[1], sw)
         stats[2] = max(stats[2], rel)
@@ -116,9 +119,12 @@ def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
         stats[4] += ntg
         if sw >= max_sweeps and rel > tol:
             stats[7] += 1
-        # kinetic energy of the disks that touch something: a free-flying rattler
-        # (zero gravity) keeps its speed forever and does not stop jamming
+        # kinetic energy of the disks that touch something or feel a body force: a
+        # free-flying rattler in zero gravity keeps its speed forever and does not
+        # stop jamming
         loaded = np.zeros(nb, dtype=np.bool_)
+        for i in range(n):
+            loaded[i] = fy_ext[i] != 0.0  # a falling disk is not at rest
         for k in range(a.shape[0]):
             if rn[k] > 0.0:
                 loaded[a[k]] = True

@@ -57,10 +57,11 @@ def _radius_max(v, d):
 
 def _width(v, d):
     rmax = d["disks.radius_max"]
+    if not d["box.periodic_x"]:
+        return None if v >= 2.0 * rmax else f"must be >= 2 * disks.radius_max = {2 * rmax:g}"
     need = 4.0 * rmax + 2.0 * d["solver.contact_margin"]
     return None if v >= need else (f"must be >= 4 * disks.radius_max + 2 * solver.contact_margin "
-                                   f"= {need:g} (minimum-image convention; larger than the "
-                                   f"largest disk)")
+                                   f"= {need:g} with periodic x (minimum-image convention)")
 
 
 def _slice(v, d):
@@ -101,6 +102,10 @@ SCHEMA: dict[str, Key] = {
     "solver.tolerance": Key(float, 1e-4, _small_tol,
                             "relative force change per sweep that ends a time step's NLGS"),
     "solver.max_sweeps": Key(int, 1000, _int_at_least(1), "sweep cap per time step"),
+    "solver.overlap_correction": Key(float, 0.2, lambda v, _: None if 0 <= v <= 1 else
+                                     "must be in [0, 1]",
+                                     "fraction of an overlap removed per step while the "
+                                     "packing moves (0: Unger's rule throughout)"),
     "solver.contact_margin": Key(float, 0.1, _positive,
                                  "pairs closer than this gap [R] enter the contact list"),
     "jamming.kinetic_energy_tol": Key(float, 1e-10, _positive,

@@ -1,0 +1,45 @@
+"""Small hand-built systems for the engine tests, driven through the numba kernels."""
+import numpy as np
+
+from forcespace.contacts import N_WALL_SLOTS
+from forcespace.dynamics import run_steps
+from forcespace.jamming import Bodies
+
+
+def free_bodies(x, y, r, vx=None, vy=None, fixed=(), density=1.0, rotation=True,
+                gravity=0.0):
+    """Body arrays for disks (walls present but immovable); ``fixed`` disks never move."""
+    x, y, r = (np.asarray(v, float) for v in (x, y, r))
+    n = len(r)
+    nb = n + N_WALL_SLOTS
+    m = density * np.pi * r**2
+    inv_mx = np.zeros(nb)
+    inv_my = np.zeros(nb)
+    inv_i = np.zeros(nb)
+    inv_mx[:n] = inv_my[:n] = 1 / m
+    if rotation:
+        inv_i[:n] = 1 / (0.5 * m * r**2)
+    for i in fixed:
+        inv_mx[i] = inv_my[i] = inv_i[i] = 0.0
+    fy = np.zeros(nb)
+    fy[:n] = -m * gravity
+    fy[list(fixed)] = 0.0
+    X, Y = np.zeros(nb), np.zeros(nb)
+    X[:n], Y[:n] = x, y
+    VX, VY = np.zeros(nb), np.zeros(nb)
+    if vx is not None:
+        VX[:n] = vx
+    if vy is not None:
+        VY[:n] = vy
+    return Bodies(X, Y, np.zeros(nb), VX, VY, np.zeros(nb), r, inv_mx, inv_my, inv_i, fy)
+
+
+def step(bodies, nsteps, dt=0.01, width=100.0, periodic=False, mu=0.0, margin=0.5,
+         tol=1e-12, max_sweeps=1000, seed=1, state=None):
+    """Advance free disks (no walls) ``nsteps``; returns (keys, rn, rt, stats)."""
+    keys, rn, rt = state if state is not None else (np.zeros(0, np.int64), np.zeros(0),
+                                                    np.zeros(0))
+    return run_steps(bodies.x, bodies.y, bodies.th, bodies.vx, bodies.vy, bodies.w, bodies.r,
+                     bodies.n, bodies.inv_mx, bodies.inv_my, bodies.inv_i, bodies.fy_ext,
+                     width, periodic, False, False, False, margin, dt, tol, max_sweeps,
+                     mu, 0.0, bool(bodies.inv_i.any()), keys, rn, rt, nsteps, seed)
