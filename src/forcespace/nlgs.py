@@ -79,17 +79,27 @@ def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
 
     Returns (sweeps, relative_change, normal_updates, tangential_updates).
     """
-    np.random.seed(seed)
     nc = a.shape[0]
     order = np.arange(nc)
+    state = np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(0x632BE59BD9B4E019)
+    inv_mn = np.zeros(nc)
+    inv_mt = np.zeros(nc)
+    for k in range(nc):
+        if mn[k] > 0.0:
+            inv_mn[k] = 1.0 / mn[k]
+        if mt[k] > 0.0:
+            inv_mt[k] = 1.0 / mt[k]
     rel = 0.0
     n_norm = 0
     n_tang = 0
     sweeps = 0
     for sweep in range(max_sweeps):
         sweeps = sweep + 1
-        for s in range(nc - 1, 0, -1):  # Fisher-Yates shuffle
-            q = np.random.randint(0, s + 1)
+        for s in range(nc - 1, 0, -1):  # Fisher-Yates shuffle, xorshift64* generator
+            state ^= state >> np.uint64(12)
+            state ^= state << np.uint64(25)
+            state ^= state >> np.uint64(27)
+            q = np.int64((state * np.uint64(0x2545F4914F6CDD1D)) >> np.uint64(33)) % (s + 1)
             tmp = order[s]
             order[s] = order[q]
             order[q] = tmp
@@ -104,7 +114,7 @@ def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
             ey = ny[k]
             dvx = vx[j] - vx[i]
             dvy = vy[j] - vy[i]
-            un = dvx * ex + dvy * ey - dt * rn[k] / mn[k]
+            un = dvx * ex + dvy * ey - dt * rn[k] * inv_mn[k]
             gp = gap[k] if gap[k] > 0.0 else overlap_correction * gap[k]
             if un * dt + gp > 0.0:
                 new_n = 0.0
@@ -123,7 +133,7 @@ def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
                 n_tang += 1
                 tx = -ey
                 ty = ex
-                ut = dvx * tx + dvy * ty - rb[k] * w[j] - ra[k] * w[i] - dt * rt[k] / mt[k]
+                ut = dvx * tx + dvy * ty - rb[k] * w[j] - ra[k] * w[i] - dt * rt[k] * inv_mt[k]
                 new_t = -(mt[k] / dt) * ut
                 lim = mu[k] * new_n
                 if new_t > lim:

@@ -1,0 +1,193 @@
+"""Benchmarks of the reference engine (``make bench``); figures go to studies/out/bench.*.
+
+Measured, not asserted:
+1. Gauss-Seidel contact updates per second, on the 200-disk paper packing and a
+   2000-disk packing (the same packing tiled 10 times along periodic x, so the
+   contact structure is that of a real jammed packing), frictionless and
+   frictional update paths side by side.
+2. Wall time to jam ``inputs/paper.toml`` (mu = 0 and mu = 0.1).
+3. What accuracy costs in time: equilibrium residual of the static solve
+   against sweeps and seconds, and the compression's overlap and time against
+   the per-step NLGS tolerance.
+
+Ratios of numbers measured in the same run are the robust part (the machine is
+shared); absolute rates carry the machine's noise.
+"""
+from __future__ import annotations
+
+import json
+import platform
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from forcespace import __version__
+from forcespace.contacts import N_WALL_SLOTS
+from forcespace.draw import save_figure
+from forcespace.jamming import build_packing, static_solve, compress, loose_start, make_bodies
+from forcespace.nlgs import add_contact_velocities, effective_masses, nlgs_solve
+from forcespace.packing import Packing
+from forcespace.scene import load_scene
+
+OUT = Path(__file__).parent / "out"
+
+
+def tile(p: Packing, k: int) -> Packing:
+    """The packing repeated k times along periodic x (n -> k n disks, same forces)."""
+    n = p.n_disks
+    shift = np.repeat(np.arange(k), n)
+    x = np.tile(p.x, k) + shift * p.width
+    fields = {}
+    a_blocks, b_blocks, img_blocks = [], [], []
+    for c in range(k):
+        a = np.where(p.a >= 0, p.a + c * n, p.a)
+        # b's image: the copy (c + image) mod k, with the wrap carried by the new image
+        tgt = c + p.image
+        b = np.where(p.b >= 0, p.b + (tgt % k) * n, p.b)
+        a_blocks.append(a)
+        b_blocks.append(b)
+        img_blocks.append(np.where(p.b >= 0, np.floor_divide(tgt, k), 0))
+    for name in ("normal", "point", "gap", "fn", "ft"):
+        fields[name] = np.concatenate([getattr(p, name)] * k)
+    return replace(p, x=x, y=np.tile(p.y, k), r=np.tile(p.r, k), width=k * p.width,
+                   top_force=k * p.top_force, a=np.concatenate(a_blocks),
+                   b=np.concatenate(b_blocks), image=np.concatenate(img_blocks), **fields)
+
+
+def kernel_arrays(p: Packing, rotation: bool):
+    """Statics kernel arrays of a packing (walls fixed, top plate movable)."""
+    n = p.n_disks
+    nb = n + N_WALL_SLOTS
+    a = np.where(p.a >= 0, p.a, n - p.a - 1)
+    b = np.where(p.b >= 0, p.b, n - p.b - 1)
+    inv_m = np.zeros(nb)
+    inv_m[:n] = 1.0 / p.mass
+    inv_my = inv_m.copy()
+    inv_my[n + 1] = 0.1
+    inv_i = np.zeros(nb)
+    if rotation:
+        inv_i[:n] = 1.0 / (0.5 * p.mass * p.r**2)
+    ra = np.where(p.a >= 0, p.r[np.maximum(p.a, 0)], 0.0)
+    rb = np.where(p.b >= 0, p.r[np.maximum(p.b, 0)], 0.0)
+    return a, b, p.normal[:, 0].copy(), p.normal[:, 1].copy(), ra, rb, inv_m, inv_my, inv_i
+
+
+def updates_per_second(p: Packing, mu: float, sweeps: int, repeats: int = 3) -> float:
+    """Best-of-``repeats`` contact updates per second of ``sweeps`` NLGS sweeps."""
+    a, b, nx, ny, ra, rb, imx, imy, ii = kernel_arrays(p, rotation=mu > 0)
+    mn, mt = effective_masses(a, b, nx, ny, ra, rb, imx, imy, ii)
+    muc = np.full(a.size, mu)
+    gap = np.zeros(a.size)
+    best = np.inf
+    for rep in range(repeats + 1):  # first run compiles / warms caches
+        rn, rt = p.fn.copy(), p.ft.copy() * (mu > 0)
+        vx, vy, w = (np.zeros(imx.size) for _ in range(3))
+        vy[p.n_disks + 1] = -p.top_force * imy[p.n_disks + 1]
+        add_contact_velocities(a, b, nx, ny, ra, rb, rn, rt, imx, imy, ii, 1.0, vx, vy, w)
+        t0 = time.perf_counter()
+        nlgs_solve(a, b, nx, ny, ra, rb, gap, muc, mn, mt, rn, rt, vx, vy, w, imx, imy, ii,
+                   1.0, 0.0, sweeps, rep)
+        if rep:
+            best = min(best, time.perf_counter() - t0)
+    return a.size * sweeps / best
+
+
+def static_convergence(scene, seed=1):
+    """Residual against sweeps and seconds of the final static solve (from cold forces)."""
+    rng = np.random.default_rng(scene["scene.seed"])
+    x, y, r, h = loose_start(scene, rng)
+    bodies = make_bodies(scene, x, y, r, h)
+    compress(scene, bodies, seed, show_progress=False)
+    history = []
+    for cap in (100, 300, 1000, 3000, 10000, 30000, 100000, 300000):
+        s = scene.with_overrides(**{"jamming.static_max_sweeps": cap,
+                                    "jamming.static_tolerance": 1e-13})
+        t0 = time.perf_counter()
+        p, st = static_solve(s, bodies, seed, show_progress=False)
+        history.append((cap, time.perf_counter() - t0, st["static_residual"]))
+        if st["static_residual"] <= 1e-13:
+            break
+    return history
+
+
+def main():
+    OUT.mkdir(parents=True, exist_ok=True)
+    paper = load_scene("inputs/paper.toml")
+    results = {"forcespace_version": __version__, "machine": platform.platform(),
+               "python": sys.version.split()[0]}
+    print("jamming inputs/paper.toml at mu = 0 and 0.1 ...", flush=True)
+    jam = {}
+    packings = {}
+    for mu in (0.0, 0.1):
+        t0 = time.perf_counter()
+        p = build_packing(paper.with_overrides(**{"physics.mu": mu}), show_progress=True)
+        jam[mu] = {"seconds": time.perf_counter() - t0, "steps": p.meta["steps"],
+                   "z": p.coordination(), "max_overlap": p.max_overlap(),
+                   "residual": p.equilibrium_residual(),
+                   "updates": p.meta["normal_updates"] + p.meta["tangential_updates"]}
+        packings[mu] = p
+        print(f"  mu={mu}: {jam[mu]}", flush=True)
+    results["jam_paper"] = {str(k): v for k, v in jam.items()}
+
+    print("contact updates per second ...", flush=True)
+    rates = {}
+    for label, p in (("200", packings[0.1]), ("2000", tile(packings[0.1], 10))):
+        for mu in (0.0, 0.1):
+            rate = updates_per_second(p, mu, sweeps=200 if label == "200" else 40)
+            rates[f"n={label}, mu={mu}"] = rate
+            print(f"  n={p.n_disks}, Nc={p.n_contacts}, mu={mu}: {rate:.3g} updates/s",
+                  flush=True)
+    results["updates_per_second"] = rates
+    results["ratios"] = {
+        "frictional/frictionless (n=200)": rates["n=200, mu=0.1"] / rates["n=200, mu=0.0"],
+        "n=2000/n=200 (mu=0.1)": rates["n=2000, mu=0.1"] / rates["n=200, mu=0.1"],
+    }
+
+    print("accuracy against time ...", flush=True)
+    acc = {}
+    for mu in (0.0, 0.1):
+        acc[f"static mu={mu}"] = static_convergence(paper.with_overrides(**{"physics.mu": mu}))
+    quick = load_scene("inputs/quick.toml")
+    sweep_tol = []
+    for tol in (1e-4, 1e-5, 1e-6, 1e-7):
+        t0 = time.perf_counter()
+        p = build_packing(quick.with_overrides(**{"solver.tolerance": tol}), show_progress=False)
+        sweep_tol.append((tol, time.perf_counter() - t0, p.max_overlap(), p.coordination()))
+    acc["compression tolerance (quick.toml)"] = sweep_tol
+    results["accuracy_vs_time"] = acc
+
+    (OUT / "bench.json").write_text(json.dumps(results, indent=2))
+    plot(results)
+    print(f"wrote {OUT / 'bench.json'}, {OUT / 'bench.png'} (+ .pdf)")
+
+
+def plot(results):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
+    for key, hist in results["accuracy_vs_time"].items():
+        if key.startswith("static"):
+            h = np.array(hist)
+            ax1.loglog(h[:, 1], h[:, 2], "o-", label=key.replace("static ", "paper, "))
+    ax1.axhline(1e-10, color="0.5", ls=":", label="required 1e-10")
+    ax1.set_xlabel("static solve wall time [s]")
+    ax1.set_ylabel("relative equilibrium residual")
+    ax1.set_title("static solve: accuracy vs time")
+    ax1.legend()
+    h = np.array(results["accuracy_vs_time"]["compression tolerance (quick.toml)"])
+    ax2.loglog(h[:, 1], h[:, 2], "s-")
+    for tol, t, ov, _z in h:
+        ax2.annotate(f"eps={tol:.0e}", (t, ov), fontsize=8)
+    ax2.set_xlabel("jamming wall time [s] (quick.toml)")
+    ax2.set_ylabel("max overlap [R]")
+    ax2.set_title("compression: NLGS tolerance vs overlap")
+    fig.tight_layout()
+    save_figure(fig, OUT / "bench.png")
+
+
+if __name__ == "__main__":
+    main()
