@@ -1,0 +1,40 @@
+# forcespace: `make demo` installs everything and runs the main job on a small scene;
+# `make test` runs the test suite; `make bench` writes benchmark figures to studies/out/.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+SUDO   := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
+
+.PHONY: install liggghts demo test bench studies clean
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+# LIGGGHTS comes from Debian; installed only when the binary is missing.
+liggghts:
+	@command -v liggghts >/dev/null 2>&1 || { \
+	  echo "installing LIGGGHTS (apt-get install liggghts)"; \
+	  $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq liggghts >/dev/null; }
+
+demo: install
+	$(BIN)/forcespace pack inputs/quick.toml -o out/quick.h5
+	$(BIN)/forcespace info out/quick.h5
+	$(BIN)/forcespace analyze out/quick.h5 --full --json
+	$(BIN)/forcespace draw out/quick.h5 -o out/quick.png
+
+test: install liggghts
+	$(BIN)/python -m pytest -q
+
+bench: install
+	$(BIN)/python studies/bench.py
+
+clean:
+	rm -rf out .numba_cache .pytest_cache
