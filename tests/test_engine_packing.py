@@ -116,3 +116,32 @@ def test_frictionless_packing_reports_zero_tangential_updates(quick):
     assert quick.meta["tangential_updates"] == 0
     assert quick.meta["static_tangential_updates"] == 0
     assert quick.meta["rotation"] is False
+
+
+def test_interrupted_compression_resumes_bit_identically(tmp_path):
+    from forcespace.errors import NumericalError
+    scene = load_scene("inputs/quick.toml").with_overrides(**{"disks.n": 14})
+    fresh = build_packing(scene, show_progress=False)
+    ck = tmp_path / "p.h5.checkpoint.npz"
+    with pytest.raises(NumericalError, match="resumes from"):
+        build_packing(scene.with_overrides(**{"jamming.max_steps": 600}), show_progress=False,
+                      checkpoint=ck)
+    assert ck.exists()
+    resumed = build_packing(scene, show_progress=False, checkpoint=ck)
+    assert not ck.exists()
+    np.testing.assert_array_equal(resumed.x, fresh.x)
+    np.testing.assert_array_equal(resumed.fn, fresh.fn)
+    assert resumed.meta["steps"] == fresh.meta["steps"]
+    np.testing.assert_array_equal(resumed.solver_log, fresh.solver_log)
+
+
+def test_checkpoint_of_another_scene_is_refused(tmp_path):
+    from forcespace.errors import InputError, NumericalError
+    scene = load_scene("inputs/quick.toml").with_overrides(**{"disks.n": 14})
+    ck = tmp_path / "c.npz"
+    with pytest.raises(NumericalError):
+        build_packing(scene.with_overrides(**{"jamming.max_steps": 200}), show_progress=False,
+                      checkpoint=ck)
+    with pytest.raises(InputError, match="another scene"):
+        build_packing(scene.with_overrides(**{"physics.mu": 0.3}), show_progress=False,
+                      checkpoint=ck)

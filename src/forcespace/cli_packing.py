@@ -7,7 +7,10 @@ from .cli import print_json
 
 
 def register(sub):
-    p = sub.add_parser("pack", help="build a jammed packing from a scene file")
+    p = sub.add_parser("pack", help="build a jammed packing from a scene file",
+                       description="Jam a packing by the scene's protocol. The compression "
+                       "checkpoints to OUTPUT.checkpoint.npz every 30 s; rerunning the same "
+                       "command after a kill resumes from it.")
     p.add_argument("scene", help="scene file (TOML), e.g. inputs/paper.toml")
     p.add_argument("-o", "--output", required=True, help="packing file to write (HDF5)")
     p.add_argument("--mu", type=float, help="override physics.mu")
@@ -34,7 +37,10 @@ def cmd_pack(args) -> int:
 
     scene = load_scene(args.scene).with_overrides(
         **{"physics.mu": args.mu, "scene.seed": args.seed, "disks.n": args.n})
-    packing = build_packing(scene, show_progress=not args.quiet)
+    checkpoint = Path(str(args.output) + ".checkpoint.npz")
+    if checkpoint.exists() and not args.quiet:
+        print(f"resuming from {checkpoint}")
+    packing = build_packing(scene, show_progress=not args.quiet, checkpoint=checkpoint)
     write_packing(packing, args.output)
     s = packing.summary()
     print(f"{Path(args.output)}: {s['n_disks']} disks, {s['n_contacts']} contacts, "

@@ -17,12 +17,13 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from .contacts import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, detect_contacts
 from .dynamics import contact_arrays, run_steps
-from .errors import NumericalError
+from .errors import InputError, NumericalError
 from .nlgs import add_contact_velocities, effective_masses, nlgs_solve
 from .packing import Packing
 from .progress import progress
@@ -117,9 +118,45 @@ def _flags(scene: Scene):
 
 
 SETTLE_FACTOR = 1e4
+CHECKPOINT_SECONDS = 30.0
+_STATE_ARRAYS = ("x", "y", "th", "vx", "vy", "w")
 
 
-def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=None) -> dict:
+def _scene_identity(scene: Scene) -> str:
+    """What a checkpoint must match: the scene without its step budget."""
+    return scene.with_overrides(**{"jamming.max_steps": 1}).to_toml().split("\n", 1)[1]
+
+
+def save_checkpoint(path, scene: Scene, bodies: Bodies, run: dict) -> None:
+    """Write the compression state atomically (temp file, then rename)."""
+    import os
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp.npz")
+    np.savez(tmp, scene=_scene_identity(scene), log=np.array(run["log"], float).reshape(-1, 5),
+             totals=run["totals"], keys=run["keys"], rn=run["rn"], rt=run["rt"],
+             steps=run["steps"], settling=run["settling"],
+             **{k: getattr(bodies, k) for k in _STATE_ARRAYS})
+    os.replace(tmp, path)
+
+
+def load_checkpoint(path, scene: Scene, bodies: Bodies) -> dict | None:
+    """Restore a compression state saved for the same scene (in place), else None."""
+    path = Path(path)
+    if not path.is_file():
+        return None
+    with np.load(path) as d:
+        if str(d["scene"]) != _scene_identity(scene):
+            raise InputError(path, "scene", "checkpoint belongs to another scene; delete it to "
+                             "start afresh")
+        for k in _STATE_ARRAYS:
+            getattr(bodies, k)[:] = d[k]
+        return {"log": [tuple(row) for row in d["log"]], "totals": d["totals"].copy(),
+                "keys": d["keys"].copy(), "rn": d["rn"].copy(), "rt": d["rt"].copy(),
+                "steps": int(d["steps"]), "settling": bool(d["settling"])}
+
+
+def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=None,
+             checkpoint=None) -> dict:
     """Run contact dynamics until jammed (in place). Returns solver statistics.
 
     Overlaps left by truncated sweeps are removed at the rate
@@ -128,56 +165,71 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
     the final settling uses Unger's rule (no overlap correction), so the
     jammed state is a true rest state of the rigid dynamics.
 
+    ``checkpoint``: a file the state is saved to every ``CHECKPOINT_SECONDS``
+    and resumed from if it exists (bit-identical to an uninterrupted run); it
+    is removed once jammed. ``log`` (a list) receives one row per window.
+
     Raises NumericalError if the state becomes non-finite or max_steps is reached.
     """
     periodic, has_bottom, has_top, has_sides = _flags(scene)
     window = scene["jamming.window"]
     ke_tol = scene["jamming.kinetic_energy_tol"] * _energy_scale(scene, bodies)
     v_tol = scene["jamming.plate_velocity_tol"]
-    keys = np.zeros(0, dtype=np.int64)
-    rn = np.zeros(0)
-    rt = np.zeros(0)
-    totals = np.zeros(8)
     beta = scene["solver.overlap_correction"]
-    settling_phase_not_reached = True
-    steps = 0
+    run = load_checkpoint(checkpoint, scene, bodies) if checkpoint else None
+    if run is None:
+        run = {"log": [], "totals": np.zeros(8), "keys": np.zeros(0, dtype=np.int64),
+               "rn": np.zeros(0), "rt": np.zeros(0), "steps": 0, "settling": False}
+    totals = run["totals"]
     t0 = time.perf_counter()
+    last_save = t0
     bar = progress(total=scene["jamming.max_steps"], desc="compressing", unit="step",
                    disable=not show_progress)
+    bar.update(run["steps"])
     try:
-        while steps < scene["jamming.max_steps"]:
-            keys, rn, rt, st = run_steps(
+        while run["steps"] < scene["jamming.max_steps"]:
+            run["keys"], run["rn"], run["rt"], st = run_steps(
                 bodies.x, bodies.y, bodies.th, bodies.vx, bodies.vy, bodies.w, bodies.r,
                 bodies.n, bodies.inv_mx, bodies.inv_my, bodies.inv_i, bodies.fy_ext,
                 scene["box.width"], periodic, has_bottom, has_top, has_sides,
                 scene["solver.contact_margin"], scene["solver.dt"], scene["solver.tolerance"],
                 scene["solver.max_sweeps"], scene["physics.mu"], scene["physics.plate_mu"],
-                scene.rotation, keys, rn, rt, window, seed + steps,
-                beta if settling_phase_not_reached else 0.0)
-            steps += window
+                scene.rotation, run["keys"], run["rn"], run["rt"], window, seed + run["steps"],
+                0.0 if run["settling"] else beta)
+            run["steps"] += window
             totals[0] += st[0]
             totals[1] = max(totals[1], st[1])
             totals[3:5] += st[3:5]
             totals[7] += st[7]
             if not (np.isfinite(bodies.x).all() and np.isfinite(bodies.y).all()):
-                raise NumericalError(f"non-finite positions after {steps} steps; "
+                raise NumericalError(f"non-finite positions after {run['steps']} steps; "
                                      "reduce solver.dt")
             bar.update(window)
             bar.set_postfix(ke=f"{st[5]:.1e}", v_top=f"{st[6]:.1e}",
                             sweeps=f"{st[0] / window:.0f}", refresh=False)
-            if log is not None:
-                log.append((steps, st[5], st[6], st[0] / window, st[2]))
-            if st[5] <= ke_tol and st[6] <= v_tol and not (settling_phase_not_reached and beta):
+            run["log"].append((run["steps"], st[5], st[6], st[0] / window, st[2]))
+            if st[5] <= ke_tol and st[6] <= v_tol and (run["settling"] or beta == 0.0):
                 break
             if st[5] <= SETTLE_FACTOR * ke_tol and st[6] <= SETTLE_FACTOR * v_tol:
-                settling_phase_not_reached = False
+                run["settling"] = True
+            if checkpoint and time.perf_counter() - last_save > CHECKPOINT_SECONDS:
+                save_checkpoint(checkpoint, scene, bodies, run)
+                last_save = time.perf_counter()
         else:
-            raise NumericalError(f"not jammed after jamming.max_steps = {steps} steps "
+            if checkpoint:
+                save_checkpoint(checkpoint, scene, bodies, run)
+            raise NumericalError(f"not jammed after jamming.max_steps = {run['steps']} steps "
                                  f"(last kinetic energy per disk {st[5]:.3g}, plate speed "
-                                 f"{st[6]:.3g}); raise jamming.max_steps or the tolerances")
+                                 f"{st[6]:.3g}); raise jamming.max_steps or the tolerances"
+                                 + (f"; the run resumes from {checkpoint}" if checkpoint else ""))
     finally:
         bar.close()
-    return {"steps": steps, "sweeps_total": int(totals[0]), "sweeps_max_step": int(totals[1]),
+    if checkpoint:
+        Path(checkpoint).unlink(missing_ok=True)
+    if log is not None:
+        log.extend(run["log"])
+    return {"steps": run["steps"], "sweeps_total": int(totals[0]),
+            "sweeps_max_step": int(totals[1]),
             "normal_updates": int(totals[3]), "tangential_updates": int(totals[4]),
             "steps_at_sweep_cap": int(totals[7]),
             "compress_seconds": time.perf_counter() - t0}
@@ -290,15 +342,20 @@ def _packing_view(scene: Scene, bodies: Bodies, a, b, nx, ny, gap, image):
     return make
 
 
-def build_packing(scene: Scene, show_progress=True) -> Packing:
-    """Run the whole protocol for ``scene`` and return the static packing."""
+def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
+    """Run the whole protocol for ``scene`` and return the static packing.
+
+    ``checkpoint``: file for resumable compression (see :func:`compress`).
+    """
     seed = scene["scene.seed"]
     rng = np.random.default_rng(seed)
     x, y, r, height = loose_start(scene, rng)
     bodies = make_bodies(scene, x, y, r, height)
     t0 = time.perf_counter()
-    meta = compress(scene, bodies, seed, show_progress)
+    log = []
+    meta = compress(scene, bodies, seed, show_progress, log=log, checkpoint=checkpoint)
     packing, static = static_solve(scene, bodies, seed, show_progress)
+    packing.solver_log = np.array(log, dtype=float).reshape(-1, 5)
     meta.update(static)
     meta["wall_seconds"] = time.perf_counter() - t0
     meta["rotation"] = bool(scene.rotation)

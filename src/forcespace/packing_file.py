@@ -14,6 +14,7 @@ Layout::
     /contacts/gap     (Nc,)        surface gap, negative = overlap [R]
     /forces           (Nc, 2) columns fn, ft  force on b        [F0]
     /plate_forces     (k, 2)  per-wall total force on the wall  [F0]
+    /solver_log  (k, 5)  compression history (see its attributes)
     /meta        attrs: solver statistics of the run that made the packing
 """
 from __future__ import annotations
@@ -72,6 +73,14 @@ def write_packing(packing: Packing, path, kind: str = "packing", extra_attrs: di
         ds = write_dataset(f, "plate_forces", pf, "F0", "total contact force on each wall",
                            columns=["fx", "fy"])
         ds.attrs["walls"] = [WALL_NAMES[w] for w in walls]
+        if p.solver_log is not None:
+            write_dataset(f, "solver_log", p.solver_log, "mixed",
+                          "compression history, one row per jamming window: step count, "
+                          "largest kinetic energy per disk [F0 R], largest top-plate speed "
+                          "[R/time], mean NLGS sweeps per step, largest final relative force "
+                          "change of a step's NLGS",
+                          columns=["step", "kinetic_energy", "plate_speed", "sweeps_per_step",
+                                   "nlgs_relative_change"])
         m = f.create_group("meta")
         m.attrs["description"] = "statistics of the run that produced this file"
         for k, v in p.meta.items():
@@ -101,7 +110,8 @@ def read_packing(path, kind: str = "packing") -> Packing:
                 image=c["image"][()].astype(np.int64), gap=c["gap"][()],
                 fn=forces.reshape(-1, 2)[:, 0].copy(), ft=forces.reshape(-1, 2)[:, 1].copy(),
                 seed=int(f.attrs["seed"]), scene_text=str(f.attrs["scene_text"]),
-                scene_name=str(f.attrs["scene_name"]), meta=meta)
+                scene_name=str(f.attrs["scene_name"]), meta=meta,
+                solver_log=f["solver_log"][()] if "solver_log" in f else None)
         except KeyError as exc:
             raise InputError(path, str(exc.args[0]) if exc.args else "?",
                              "missing from the file; not a complete forcespace packing") from None
