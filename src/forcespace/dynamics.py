@@ -73,17 +73,18 @@ def contact_arrays(ints, floats, r, n, mu_disk, mu_wall):
 def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
               width, periodic, has_bottom, has_top, has_sides, margin,
               dt, tol, max_sweeps, mu_disk, mu_wall, rotation,
-              keys, rn, rt, nsteps, seed, overlap_correction=0.0):
+              keys, rn, rt, nsteps, seed, overlap_correction=0.0, overlap_slop=0.0):
     """Advance ``nsteps`` steps in place.
 
     Arrays of shape (n+4,): positions x, y, angle th, velocities vx, vy, w,
     inverse masses, external vertical force fy_ext [F0]. ``keys, rn, rt``:
     the previous step's contacts (sorted keys) and forces for warm starting.
-    ``overlap_correction``: see :func:`forcespace.nlgs.nlgs_solve`.
+    ``overlap_correction``, ``overlap_slop``: see :func:`forcespace.nlgs.nlgs_solve`.
 
     Returns (keys, rn, rt, stats) with the last step's contacts and ``stats``
     of shape (8,): total sweeps, max sweeps in a step, max final relative
-    change, normal updates, tangential updates, max kinetic energy per disk (free-flying disks in zero gravity excluded),
+    change, normal updates, tangential updates, max kinetic energy per disk (free-flying disks in zero gravity and a uniform
+    horizontal drift, a zero mode with periodic x and frictionless walls, excluded),
     max |v_top|, steps whose NLGS hit the sweep cap.
     """
     stats = np.zeros(8)
@@ -111,7 +112,7 @@ def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
         sw, rel, nn, ntg = nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt,
                                       vx, vy, w, inv_mx, inv_my, inv_i, dt, tol,
                                       max_sweeps, (seed + 7919 * step) % 2147483647,
-                                      overlap_correction)
+                                      overlap_correction, overlap_slop)
         stats[0] += sw
         stats[1] = max(stats[1], sw)
         stats[2] = max(stats[2], rel)
@@ -129,6 +130,18 @@ def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
             if rn[k] > 0.0:
                 loaded[a[k]] = True
                 loaded[b[k]] = True
+        # with periodic x and frictionless walls a uniform horizontal drift is a zero
+        # mode (momentum from rattlers keeps it going forever): measure KE without it
+        drift = 0.0
+        if periodic and mu_wall == 0.0:
+            px = 0.0
+            ml = 0.0
+            for i in range(n):
+                if loaded[i]:
+                    px += mass[i] * vx[i]
+                    ml += mass[i]
+            if ml > 0.0:
+                drift = px / ml
         ke = 0.0
         for i in range(n):
             x[i] += dt * vx[i]
@@ -136,7 +149,7 @@ def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
             if rotation:
                 th[i] += dt * w[i]
             if loaded[i]:
-                ke += 0.5 * mass[i] * (vx[i] * vx[i] + vy[i] * vy[i]) \
+                ke += 0.5 * mass[i] * ((vx[i] - drift) ** 2 + vy[i] * vy[i]) \
                     + 0.5 * inertia[i] * w[i] * w[i]
             if periodic:
                 x[i] -= width * np.floor(x[i] / width)

@@ -117,7 +117,6 @@ def _flags(scene: Scene):
             scene["plates.top"] == "load", not scene["box.periodic_x"])
 
 
-SETTLE_FACTOR = 1e4
 CHECKPOINT_SECONDS = 30.0
 _STATE_ARRAYS = ("x", "y", "th", "vx", "vy", "w")
 
@@ -134,7 +133,7 @@ def save_checkpoint(path, scene: Scene, bodies: Bodies, run: dict) -> None:
     tmp = path.with_name(f".{path.name}.tmp.npz")
     np.savez(tmp, scene=_scene_identity(scene), log=np.array(run["log"], float).reshape(-1, 5),
              totals=run["totals"], keys=run["keys"], rn=run["rn"], rt=run["rt"],
-             steps=run["steps"], settling=run["settling"],
+             steps=run["steps"],
              **{k: getattr(bodies, k) for k in _STATE_ARRAYS})
     os.replace(tmp, path)
 
@@ -152,18 +151,17 @@ def load_checkpoint(path, scene: Scene, bodies: Bodies) -> dict | None:
             getattr(bodies, k)[:] = d[k]
         return {"log": [tuple(row) for row in d["log"]], "totals": d["totals"].copy(),
                 "keys": d["keys"].copy(), "rn": d["rn"].copy(), "rt": d["rt"].copy(),
-                "steps": int(d["steps"]), "settling": bool(d["settling"])}
+                "steps": int(d["steps"])}
 
 
 def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=None,
              checkpoint=None) -> dict:
     """Run contact dynamics until jammed (in place). Returns solver statistics.
 
-    Overlaps left by truncated sweeps are removed at the rate
-    ``solver.overlap_correction`` while the packing still moves; once kinetic
-    energy and plate speed fall below ``SETTLE_FACTOR`` times their thresholds
-    the final settling uses Unger's rule (no overlap correction), so the
-    jammed state is a true rest state of the rigid dynamics.
+    Overlaps left by truncated sweeps beyond ``solver.overlap_slop`` are
+    removed at the rate ``solver.overlap_correction``; below the slop Unger's
+    rule holds exactly, so the jammed state is a true rest state of the rigid
+    dynamics.
 
     ``checkpoint``: a file the state is saved to every ``CHECKPOINT_SECONDS``
     and resumed from if it exists (bit-identical to an uninterrupted run); it
@@ -179,7 +177,7 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
     run = load_checkpoint(checkpoint, scene, bodies) if checkpoint else None
     if run is None:
         run = {"log": [], "totals": np.zeros(8), "keys": np.zeros(0, dtype=np.int64),
-               "rn": np.zeros(0), "rt": np.zeros(0), "steps": 0, "settling": False}
+               "rn": np.zeros(0), "rt": np.zeros(0), "steps": 0}
     totals = run["totals"]
     t0 = time.perf_counter()
     last_save = t0
@@ -195,7 +193,7 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
                 scene["solver.contact_margin"], scene["solver.dt"], scene["solver.tolerance"],
                 scene["solver.max_sweeps"], scene["physics.mu"], scene["physics.plate_mu"],
                 scene.rotation, run["keys"], run["rn"], run["rt"], window, seed + run["steps"],
-                0.0 if run["settling"] else beta)
+                beta, scene["solver.overlap_slop"])
             run["steps"] += window
             totals[0] += st[0]
             totals[1] = max(totals[1], st[1])
@@ -208,10 +206,8 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
             bar.set_postfix(ke=f"{st[5]:.1e}", v_top=f"{st[6]:.1e}",
                             sweeps=f"{st[0] / window:.0f}", refresh=False)
             run["log"].append((run["steps"], st[5], st[6], st[0] / window, st[2]))
-            if st[5] <= ke_tol and st[6] <= v_tol and (run["settling"] or beta == 0.0):
+            if st[5] <= ke_tol and st[6] <= v_tol:
                 break
-            if st[5] <= SETTLE_FACTOR * ke_tol and st[6] <= SETTLE_FACTOR * v_tol:
-                run["settling"] = True
             if checkpoint and time.perf_counter() - last_save > CHECKPOINT_SECONDS:
                 save_checkpoint(checkpoint, scene, bodies, run)
                 last_save = time.perf_counter()

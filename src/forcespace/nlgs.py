@@ -67,13 +67,16 @@ def add_contact_velocities(a, b, nx, ny, ra, rb, rn, rt, inv_mx, inv_my, inv_i, 
 
 @njit(cache=True)
 def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
-               inv_mx, inv_my, inv_i, dt, tol, max_sweeps, seed, overlap_correction=0.0):
+               inv_mx, inv_my, inv_i, dt, tol, max_sweeps, seed, overlap_correction=0.0,
+               overlap_slop=0.0):
     """Iterate Gauss-Seidel sweeps until the forces converge.
 
     Sweeps visit all contacts in a fresh random order (seeded by ``seed``).
-    ``overlap_correction`` = beta in [0, 1]: an overlapping contact (gap < 0)
-    aims at removing the fraction beta of its overlap in this step (g+ -> beta*g);
-    beta = 0 is Unger's rule, where overlaps are never pushed apart.
+    ``overlap_correction`` = beta in [0, 1] and ``overlap_slop`` = s >= 0: a
+    contact overlapping by more than s (gap < -s) aims at removing the fraction
+    beta of the excess in this step (g+ -> beta*(g + s)); smaller overlaps are
+    left alone, so a packing with all overlaps below s is at rest exactly under
+    Unger's rule (beta = 0: overlaps are never pushed apart).
     Convergence: sum|dR| over a sweep <= tol * sum|R| after it.
     ``rn, rt, vx, vy, w`` are updated in place.
 
@@ -115,7 +118,9 @@ def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
             dvx = vx[j] - vx[i]
             dvy = vy[j] - vy[i]
             un = dvx * ex + dvy * ey - dt * rn[k] * inv_mn[k]
-            gp = gap[k] if gap[k] > 0.0 else overlap_correction * gap[k]
+            gp = gap[k]
+            if gp < 0.0:
+                gp = overlap_correction * (gp + overlap_slop) if gp < -overlap_slop else 0.0
             if un * dt + gp > 0.0:
                 new_n = 0.0
             else:

@@ -99,13 +99,15 @@ SCHEMA: dict[str, Key] = {
     "plates.top_force": Key(float, 1.0, _positive, "downward force on the top plate [F0]"),
     "plates.top_mass": Key(float, 10.0, _positive, "mass of the top plate [rho R^2]"),
     "solver.dt": Key(float, 0.02, _positive, "time step"),
-    "solver.tolerance": Key(float, 1e-4, _small_tol,
+    "solver.tolerance": Key(float, 1e-6, _small_tol,
                             "relative force change per sweep that ends a time step's NLGS"),
     "solver.max_sweeps": Key(int, 1000, _int_at_least(1), "sweep cap per time step"),
     "solver.overlap_correction": Key(float, 0.2, lambda v, _: None if 0 <= v <= 1 else
                                      "must be in [0, 1]",
-                                     "fraction of an overlap removed per step while the "
-                                     "packing moves (0: Unger's rule throughout)"),
+                                     "fraction of an overlap's excess over the slop removed "
+                                     "per step (0: Unger's rule, overlaps never pushed apart)"),
+    "solver.overlap_slop": Key(float, 2e-7, _nonneg,
+                               "overlap [R] tolerated without correction"),
     "solver.contact_margin": Key(float, 0.1, _positive,
                                  "pairs closer than this gap [R] enter the contact list"),
     "jamming.kinetic_energy_tol": Key(float, 1e-10, _positive,
