@@ -145,3 +145,22 @@ def test_checkpoint_of_another_scene_is_refused(tmp_path):
     with pytest.raises(InputError, match="another scene"):
         build_packing(scene.with_overrides(**{"physics.mu": 0.3}), show_progress=False,
                       checkpoint=ck)
+
+
+@pytest.mark.parametrize("overrides", [
+    # wide size ratio, strong friction, gravity-settled layer without a top plate
+    {"disks.n": 16, "disks.radius_max": 4.0, "box.width": 30.0, "physics.mu": 1.0,
+     "physics.gravity": 1.0, "plates.top": "none", "physics.plate_mu": 0.5},
+    # closed box (side walls) with frictional walls under a heavy plate load
+    {"disks.n": 16, "box.periodic_x": False, "box.width": 14.0, "physics.mu": 0.3,
+     "physics.plate_mu": 0.3, "plates.top_force": 1000.0},
+])
+def test_hard_cases_jam_to_a_finite_static_state(overrides):
+    scene = load_scene("inputs/quick.toml").with_overrides(**overrides)
+    p = build_packing(scene, show_progress=False)
+    s = p.summary()
+    assert np.isfinite(p.fn).all() and np.isfinite(p.ft).all()
+    assert s["equilibrium_residual"] <= 1e-10
+    assert s["max_overlap"] <= 1e-6
+    assert (np.abs(p.ft) <= np.where((p.a < 0) | (p.b < 0), p.plate_mu, p.mu) * p.fn
+            * (1 + 1e-12) + 1e-300).all()

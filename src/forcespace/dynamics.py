@@ -90,12 +90,9 @@ def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
     stats = np.zeros(8)
     nb = n + N_WALL_SLOTS
     mass = np.zeros(nb)
-    inertia = np.zeros(nb)
     for i in range(n):
-        if inv_mx[i] > 0.0:  # fixed disks (zero inverse mass) carry no kinetic energy
+        if inv_mx[i] > 0.0:  # fixed disks (zero inverse mass) carry no momentum
             mass[i] = 1.0 / inv_mx[i]
-        if inv_i[i] > 0.0:
-            inertia[i] = 1.0 / inv_i[i]
     for step in range(nsteps):
         ints, floats = detect_contacts(x, y, r, n, width, periodic,
                                        has_bottom, has_top, has_sides, margin)
@@ -120,9 +117,8 @@ def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
         stats[4] += ntg
         if sw >= max_sweeps and rel > tol:
             stats[7] += 1
-        # kinetic energy of the disks that touch something or feel a body force: a
-        # free-flying rattler in zero gravity keeps its speed forever and does not
-        # stop jamming
+        # speeds (for the log) of the disks that touch something or feel a body
+        # force: a free-flying rattler in zero gravity keeps its speed forever
         loaded = np.zeros(nb, dtype=np.bool_)
         for i in range(n):
             loaded[i] = fy_ext[i] != 0.0  # a falling disk is not at rest
@@ -131,7 +127,7 @@ def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
                 loaded[a[k]] = True
                 loaded[b[k]] = True
         # with periodic x and frictionless walls a uniform horizontal drift is a zero
-        # mode (momentum from rattlers keeps it going forever): measure KE without it
+        # mode (momentum from rattlers keeps it going forever): measure speeds without it
         drift = 0.0
         if periodic and mu_wall == 0.0:
             px = 0.0
@@ -142,18 +138,18 @@ def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
                     ml += mass[i]
             if ml > 0.0:
                 drift = px / ml
-        ke = 0.0
+        vmax = 0.0
         for i in range(n):
             x[i] += dt * vx[i]
             y[i] += dt * vy[i]
             if rotation:
                 th[i] += dt * w[i]
             if loaded[i]:
-                ke += 0.5 * mass[i] * ((vx[i] - drift) ** 2 + vy[i] * vy[i]) \
-                    + 0.5 * inertia[i] * w[i] * w[i]
+                speed = np.sqrt((vx[i] - drift) ** 2 + vy[i] * vy[i]) + abs(w[i]) * r[i]
+                vmax = max(vmax, speed)
             if periodic:
                 x[i] -= width * np.floor(x[i] / width)
         y[n + 1] += dt * vy[n + 1]
-        stats[5] = max(stats[5], ke / n)
+        stats[5] = max(stats[5], vmax)
         stats[6] = max(stats[6], abs(vy[n + 1]))
     return keys, rn, rt, stats

@@ -59,7 +59,7 @@ class Packing:
     scene_text: str = ""
     scene_name: str = ""
     meta: dict = field(default_factory=dict)
-    solver_log: np.ndarray | None = None  # (k, 5): step, KE/disk, |v_top|, sweeps/step, rel. change
+    solver_log: np.ndarray | None = None  # (k, 5): step, max |v|, |v_top|, sweeps/step, rel. change
 
     # ---- derived quantities -------------------------------------------------
     @property

@@ -76,10 +76,10 @@ def write_packing(packing: Packing, path, kind: str = "packing", extra_attrs: di
         if p.solver_log is not None:
             write_dataset(f, "solver_log", p.solver_log, "mixed",
                           "compression history, one row per jamming window: step count, "
-                          "largest kinetic energy per disk [F0 R], largest top-plate speed "
-                          "[R/time], mean NLGS sweeps per step, largest final relative force "
+                          "largest mean speed over the window of a loaded disk or the plate "
+                          "[R/time], largest instantaneous disk speed [R/time], mean NLGS sweeps per step, largest final relative force "
                           "change of a step's NLGS",
-                          columns=["step", "kinetic_energy", "plate_speed", "sweeps_per_step",
+                          columns=["step", "mean_speed", "max_speed", "sweeps_per_step",
                                    "nlgs_relative_change"])
         m = f.create_group("meta")
         m.attrs["description"] = "statistics of the run that produced this file"

@@ -362,7 +362,7 @@ def chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
 # Euclidean projection
 # ----------------------------------------------------------------------------
 def _ldp_projection(problem: StaticsProblem, xhat):
-    """Euclidean projection of xhat onto S, exactly, by least-distance programming.
+    """Euclidean projection of xhat onto S by least-distance programming.
 
     Null-space coordinates x = xa + N y (N orthonormal basis of {A x = 0,
     fixed columns = 0}) turn the projection into: nearest point to
@@ -370,6 +370,10 @@ def _ldp_projection(problem: StaticsProblem, xhat):
     With z = y - y*: min ||z|| s.t. E z >= f, E = -M, f = M y* - u, solved by
     the Lawson-Hanson LDP algorithm: NNLS on [E^T; f^T] v ~ (0, ..., 0, 1),
     z = -r[:d] / r[d] with r the NNLS residual (a finite active-set method).
+
+    Returns (x (2m,), active (k,) int): the projection and the rows of
+    ``problem.inequalities()`` with a positive NNLS multiplier (the active set
+    the polish starts from).
     """
     from scipy.optimize import nnls
 
@@ -380,7 +384,7 @@ def _ldp_projection(problem: StaticsProblem, xhat):
     N = null_basis(Ed)
     d = N.shape[1]
     if d == 0:
-        return xa
+        return xa, np.zeros(0, dtype=np.int64)
     M = np.asarray(G @ N)
     u = -np.asarray(G @ xa)
     ystar = N.T @ (np.asarray(xhat, float) - xa)
@@ -395,16 +399,59 @@ def _ldp_projection(problem: StaticsProblem, xhat):
     if abs(r[-1]) < 1e-14:
         raise NumericalError("projection: the constraints look infeasible (LDP)")
     z = -r[:d] / r[-1] * scale
-    return xa + N @ (ystar + z)
+    return xa + N @ (ystar + z), np.flatnonzero(v > 0)
 
 
-def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 50):
-    """Exact active-set refinement of an approximate projection ``x``.
+def _range_basis(C, tol_rel=1e-11):
+    """Orthonormal basis (ncol, r) of the row space of C (SVD, rank-revealing)."""
+    if C.shape[0] == 0:
+        return np.zeros((C.shape[1], 0))
+    _, s, vt = np.linalg.svd(C, full_matrices=False)
+    r = int((s > tol_rel * max(s[0], 1e-300) * max(C.shape)).sum()) if s.size else 0
+    return vt[:r].T
 
-    Guess the active set from ``x`` (tight inequalities and bounds), solve the
-    equality-constrained projection exactly (least squares on the KKT system),
-    verify primal feasibility and multiplier signs; add the most violated /
-    drop the most negative constraint and repeat. Returns (x, kkt_residual, ok).
+
+def _eq_projection(xhat, Ceq, ceq, Gact):
+    """Exact projection of xhat onto {Ceq x = ceq, Gact x = 0} (minimum-norm step), twice refined."""
+    C = np.vstack([Ceq, Gact])
+    c = np.concatenate([ceq, np.zeros(Gact.shape[0])])
+    xn = xhat - sla.lstsq(C, C @ xhat - c, lapack_driver="gelsd")[0]
+    return xn - sla.lstsq(C, C @ xn - c, lapack_driver="gelsd")[0]
+
+
+def _multipliers(Q, Gact, rhs):
+    """Inequality multipliers lam >= 0 with rhs = Ceq^T mu + Gact^T lam (mu free).
+
+    Q (2m, r): orthonormal basis of range(Ceq^T); the equality part is removed
+    by projecting onto its complement, then NNLS. Returns (lam (k,), residual
+    norm, unconstrained least-squares lam (k,)).
+    """
+    from scipy.optimize import nnls
+
+    P = lambda v: v - Q @ (Q.T @ v)  # noqa: E731
+    Bt = P(Gact.T) if Gact.shape[0] else np.zeros((rhs.size, 0))
+    br = P(rhs)
+    if Bt.shape[1] == 0:
+        return np.zeros(0), float(np.linalg.norm(br)), np.zeros(0)
+    colscale = np.maximum(np.linalg.norm(Bt, axis=0), 1e-300)
+    lam, res = nnls(Bt / colscale, br, maxiter=50 * Bt.shape[1])
+    free = sla.lstsq(Bt / colscale, br, lapack_driver="gelsd")[0]
+    return lam / colscale, float(res), free / colscale
+
+
+def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 60, active=None):
+    """Exact active-set refinement and KKT verification of an approximate projection ``x``.
+
+    Start from the active set ``active`` (rows of ``problem.inequalities()``;
+    default: rows tight at x to 1e-7 <Fn>). Each round solves the
+    equality-constrained projection exactly (SVD least squares), checks primal
+    feasibility (adds violated rows) and then the multipliers: NNLS for
+    lam >= 0 after projecting out the (free) equality multipliers; KKT
+    stationarity residual <= 1e-9 (relative to max(|xhat - x|, <Fn>)) accepts.
+    Otherwise the row with the most negative unconstrained multiplier is
+    dropped. An empty active set has nothing to drop: the equality projection
+    is then the answer iff its (equality-only) residual passes. Returns
+    (x, kkt_residual, ok).
     """
     G, _, _ = problem.inequalities()
     Gd = G.toarray()
@@ -413,35 +460,36 @@ def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 50):
     m2 = problem.n_columns
     E_fix = np.zeros((fixed.size, m2))
     E_fix[np.arange(fixed.size), fixed] = 1.0
-    # fn >= 0 bounds of frictional contacts are implied by Coulomb; those of
-    # frictionless ones are rows of G already.
+    Ceq = np.vstack([Ad, E_fix])
+    ceq = np.concatenate([problem.b, np.zeros(fixed.size)])
+    Q = _range_basis(Ceq)
     scale = problem.force_scale
-    act = np.flatnonzero(G @ x > -1e-7 * scale)
-    n_eq = Ad.shape[0] + fixed.size
+    if active is None:
+        act = np.flatnonzero(G @ x > -1e-7 * scale)
+    else:
+        act = np.unique(np.asarray(active, dtype=np.int64))
     best = (x, np.inf, False)
+    seen = set()
     for _ in range(max_iter):
-        C = np.vstack([Ad, E_fix, Gd[act]])
-        c = np.concatenate([problem.b, np.zeros(fixed.size), np.zeros(act.size)])
-        # minimum-norm correction: x = xhat - delta, C delta = C xhat - c, delta in rowspace(C)
-        xn = xhat - sla.lstsq(C, C @ xhat - c, lapack_driver="gelsd")[0]
-        xn = xn - sla.lstsq(C, C @ xn - c, lapack_driver="gelsd")[0]
+        key = act.tobytes()
+        if key in seen:                      # cycling: stop with the best verified so far
+            break
+        seen.add(key)
+        xn = _eq_projection(xhat, Ceq, ceq, Gd[act])
         gx = Gd @ xn
-        viol = gx.max(initial=0.0)
-        if viol > 1e-11 * scale:
+        if gx.max(initial=0.0) > 1e-11 * scale:
             act = np.union1d(act, np.flatnonzero(gx > 1e-11 * scale))
-            best = (xn, np.inf, False)
             continue
-        # multipliers: xhat - xn = C^T lam, lam >= 0 on the inequality part
-        lo = np.concatenate([np.full(n_eq, -np.inf), np.zeros(act.size)])
-        hi = np.full(n_eq + act.size, np.inf)
         rhs = xhat - xn
-        res = lsq_linear(C.T, rhs, bounds=(lo, hi), method="bvls", tol=1e-14)
-        kkt = float(np.linalg.norm(C.T @ res.x - rhs) / max(np.linalg.norm(rhs), scale))
+        lam, res, free_lam = _multipliers(Q, Gd[act], rhs)
+        kkt = res / max(np.linalg.norm(rhs), scale)
+        if kkt < best[1]:
+            best = (xn, kkt, False)
         if kkt <= 1e-9:
             return xn, kkt, True
-        free_lam = sla.lstsq(C.T, rhs, lapack_driver="gelsd")[0][n_eq:]
+        if act.size == 0:
+            break
         act = np.delete(act, int(np.argmin(free_lam)))
-        best = (xn, kkt, False)
     return best
 
 
@@ -462,9 +510,13 @@ def distance_to_S(problem: StaticsProblem, x, analysis: PolytopeAnalysis | None 
                          f"({problem.n_columns},)", got=getattr(x, "shape", None))
     if analysis is not None and not analysis.feasible:
         raise InputError("distance_to_S", "S", "is empty (infeasible); no distance")
-    xq = _ldp_projection(problem, x)
+    xq, active = _ldp_projection(problem, x)
     method = "null-space LDP (Lawson-Hanson NNLS) + verified active-set polish"
-    xn, kkt, ok = _polish(problem, x, xq)
+    xn, kkt, ok = _polish(problem, x, xq, active=active)
+    if not ok:       # retry from the rows tight at the LDP point
+        xn2, kkt2, ok2 = _polish(problem, x, xq)
+        if ok2 or kkt2 < kkt:
+            xn, kkt, ok = xn2, kkt2, ok2
     viol = problem.violation(xn)
     if not ok or viol > 1e-9:
         raise NumericalError(f"projection onto S could not be verified (kkt={kkt:.2e}, "

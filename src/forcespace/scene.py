@@ -110,10 +110,10 @@ SCHEMA: dict[str, Key] = {
                                "overlap [R] tolerated without correction"),
     "solver.contact_margin": Key(float, 0.1, _positive,
                                  "pairs closer than this gap [R] enter the contact list"),
-    "jamming.kinetic_energy_tol": Key(float, 1e-10, _positive,
-                                      "kinetic energy per disk [F0 R] below which it is at rest"),
-    "jamming.plate_velocity_tol": Key(float, 1e-7, _positive,
-                                      "top-plate speed [R per time unit] below which it is at rest"),
+    "jamming.velocity_tol": Key(float, 1e-7, _positive,
+                                "largest mean speed of a loaded disk or the plate over a "
+                                "window, relative to sqrt(F0 rbar/mbar) (F0: top-plate load "
+                                "or mean disk weight), below which the packing is at rest"),
     "jamming.window": Key(int, 200, _int_at_least(1), "steps both must stay below tolerance"),
     "jamming.max_steps": Key(int, 400000, _int_at_least(1), "give up after this many steps"),
     "jamming.static_tolerance": Key(float, 1e-10, _small_tol,
