@@ -1,4 +1,9 @@
-"""LIGGGHTS adapter with the real binary on a small hand-built packing."""
+"""LIGGGHTS adapter with the real binary on a 20-disk engine packing (mu = 0.1).
+
+Full packing, rattlers left out, frictionless load-controlled top plate (servo
+mesh). Distances are measured against the plate S (TOP contacts unknown, plate
+balance as a row).
+"""
 import shutil
 
 import numpy as np
@@ -14,42 +19,58 @@ pytestmark = pytest.mark.skipif(shutil.which("liggghts") is None,
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    p = two_row_packing(4, mu=0.1)
-    prob = soft_problem(p, top="loads")
+def packing():
+    from forcespace.jamming import build_packing
+    from forcespace.scene import load_scene
+    scene = load_scene("inputs/quick.toml").with_overrides(**{"disks.n": 20, "physics.mu": 0.1})
+    return build_packing(scene, show_progress=False)
+
+
+@pytest.fixture(scope="module")
+def runs(packing, tmp_path_factory):
+    prob = soft_problem(packing)                      # top="plate" is the default
     out = {}
-    for K in (1e2, 1e3):
-        d = tmp_path_factory.mktemp(f"k{K:g}")
-        L.write_deck(prob, d / "deck", L.LiggghtsOptions(kn=K * prob.force_scale))
-        st = L.run_deck(d / "deck")
-        soft, info = L.read_result(d / "deck", p)
+    for K in (1e3, 1e4):
+        d = tmp_path_factory.mktemp(f"k{K:g}") / "deck"
+        L.write_deck(prob, d, L.LiggghtsOptions(kn=K * prob.force_scale, max_steps=400_000))
+        st = L.run_deck(d, timeout=120)
+        soft, info = L.read_result(d, packing)
         out[K] = (st, soft, info)
-    return p, prob, out
+    return prob, out
 
 
-def test_exported_problem_balances():
-    p = two_row_packing(4, mu=0.1)
-    assert soft_problem(p, top="loads").rigid_residual() < 1e-12
+def test_exported_problem_balances(packing):
+    prob = soft_problem(packing)
+    assert prob.top_plate is not None
+    assert prob.rigid_residual() < 1e-9       # the engine settles to ~1e-12
+    S = make_problem(packing, "plate")
+    assert S.violation(S.forces_from_packing(packing.fn, packing.ft)) < 1e-9
 
 
 def test_readback_in_equilibrium_to_tolerance(runs):
-    p, prob, out = runs
+    prob, out = runs
     for K, (st, soft, info) in out.items():
         assert st["converged"]
-        # per-disk residual below the run's tolerance (relative to <Fn>)
-        assert info["max_residual_force"] <= info["tolerance_abs"]
-        assert soft.equilibrium_residual() < 1e-6
+        # per-disk residual (LIGGGHTS' own force and torque, damping off) within 3x the
+        # run's stopping tolerance; the convergence check saw it with damping terms on
+        assert info["max_residual_force"] <= 3 * info["tolerance_abs"]
+        force, torque, plate = soft.net_forces()
+        scale = prob.force_scale
+        assert np.abs(force).max() <= 3 * info["tolerance_abs"]
+        assert abs(plate) <= 3 * info["tolerance_abs"]          # plate carries top_force
+        assert (soft.b == -2).sum() > 0
 
 
-def test_overlap_scales_and_distance_small(runs):
-    p, prob, out = runs
-    ov = {K: v[1].max_overlap() for K, v in out.items()}
-    assert ov[1e3] == pytest.approx(ov[1e2] / 10, rel=0.05)
-    S = make_problem(p, "loads")
-    for K, (st, soft, info) in out.items():
-        c = compare(p, soft, S)
-        assert c["unmatched_contacts"] == 0 and c["lost_contacts"] == 0
-        assert c["relative_distance"] < 1e-6
+def test_distance_falls_tenfold_kn(packing, runs):
+    prob, out = runs
+    S = make_problem(packing, "plate")
+    c = {K: compare(packing, soft, S) for K, (st, soft, info) in out.items()}
+    for K in out:
+        assert c[K]["unmatched_contacts"] == 0
+        assert c[K]["max_lost_rigid_force_rel"] < 1e-6   # only force-free contacts open
+    assert c[1e4]["max_overlap"] == pytest.approx(c[1e3]["max_overlap"] / 10, rel=0.1)
+    assert c[1e4]["relative_distance"] < c[1e3]["relative_distance"] / 3
+    assert c[1e4]["relative_distance"] < 1e-3
 
 
 def test_refuses_frictional_loads_and_missing_binary(tmp_path):

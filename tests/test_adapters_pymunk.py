@@ -39,3 +39,25 @@ def test_slice_has_frictional_loads():
     assert prob.rigid_residual() < 1e-12
     soft, info = simulate(prob, PymunkOptions(max_steps=3000))
     assert info["converged"]
+
+
+@pytest.fixture(scope="module")
+def engine_packing():
+    from forcespace.jamming import build_packing
+    from forcespace.scene import load_scene
+    scene = load_scene("inputs/quick.toml").with_overrides(**{"disks.n": 20, "physics.mu": 0.1})
+    return build_packing(scene, show_progress=False)
+
+
+def test_engine_packing_plate_distance(engine_packing):
+    p = engine_packing
+    prob = soft_problem(p)                          # load-controlled plate, rattlers out
+    assert prob.rigid_residual() < 1e-9
+    soft, info = simulate(prob, PymunkOptions(max_steps=20000))
+    assert info["converged"]
+    force, torque, plate = soft.net_forces()
+    assert np.abs(force).max() / prob.force_scale < 1e-5
+    assert abs(plate) / prob.force_scale < 1e-5
+    c = compare(p, soft, make_problem(p, "plate"))
+    assert c["unmatched_contacts"] == 0
+    assert c["relative_distance"] < 1e-2

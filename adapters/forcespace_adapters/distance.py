@@ -53,27 +53,90 @@ def soft_vector(rigid: Packing, soft: Packing, problem=None):
     return prob, prob.forces_from_packing(m.fn, m.ft), m
 
 
-def compare(rigid: Packing, soft: Packing, problem=None, match: MatchResult | None = None) -> dict:
+def project_to_S(prob, x):
+    """Euclidean projection of ``x`` (2m,) onto S = {A y = b, Coulomb cones, fn >= 0}.
+
+    Fallback used when ``forcespace.polytope.distance_to_S`` cannot verify its
+    projection. Cone coordinates z >= 0 make every cone a pair of bounds
+    (frictional contact: fn = (u+v)/(2 mu), ft = (v-u)/2; frictionless: fn = z,
+    ft = 0); a bounded least-squares solve (scipy ``lsq_linear``, BVLS) with the
+    equalities as heavily weighted rows finds the active set, then the
+    projection restricted to that face is solved exactly (KKT system, least
+    squares). Returns (y (2m,), violation of y relative to <Fn>, note).
+    """
+    import scipy.sparse as sp
+    from scipy.optimize import lsq_linear
+    x = np.asarray(x, float)
+    m = prob.n_contacts
+    mu = np.broadcast_to(np.asarray(prob.mu, float), (m,))
+    rows, cols, vals = [], [], []
+    nz = 0
+    for k in range(m):
+        if mu[k] > 0:
+            rows += [2 * k, 2 * k, 2 * k + 1, 2 * k + 1]
+            cols += [nz, nz + 1, nz, nz + 1]
+            vals += [0.5 / mu[k], 0.5 / mu[k], -0.5, 0.5]
+            nz += 2
+        else:
+            rows.append(2 * k); cols.append(nz); vals.append(1.0)
+            nz += 1
+    T = sp.csr_matrix((vals, (rows, cols)), shape=(2 * m, nz)).toarray()
+    A = prob.A.toarray()
+    b = np.asarray(prob.b, float)
+    scale = max(prob.force_scale, 1e-300)
+    AT = A @ T
+    w = 1e4
+    res = lsq_linear(np.vstack([T, w * AT]) / scale, np.concatenate([x, w * b]) / scale,
+                     bounds=(0.0, np.inf), method="bvls", tol=1e-15, max_iter=20 * nz)
+    z = res.x * 1.0
+    y_pen = T @ z
+    free = z > 1e-10 * scale
+    # exact projection on the face {z_i = 0 for i not free}
+    TF, AF = T[:, free], AT[:, free]
+    nf, ne = TF.shape[1], AF.shape[0]
+    K = np.block([[TF.T @ TF, AF.T], [AF, np.zeros((ne, ne))]])
+    rhs = np.concatenate([TF.T @ x, b])
+    sol = np.linalg.lstsq(K, rhs, rcond=1e-13)[0]
+    zf = sol[:nf]
+    y = TF @ zf
+    if zf.min(initial=0.0) < -1e-9 * scale or prob.violation(y) > prob.violation(y_pen):
+        return y_pen, prob.violation(y_pen), "cone-coordinate BVLS with weighted equalities"
+    return y, prob.violation(y), "cone-coordinate BVLS active set + exact face projection"
+
+
+def compare(rigid: Packing, soft: Packing, problem=None, match: MatchResult | None = None,
+            projector: str = "auto") -> dict:
     """Distance to S and matching report of ``soft`` against ``rigid`` (JSON-ready dict).
 
     Keys: relative_distance, absolute_distance [F0], unmatched_contacts,
     lost_contacts, max_unmatched_force(_rel), max_lost_rigid_force(_rel),
     max_overlap [R], soft_equilibrium_residual (soft geometry), n_unknown_contacts,
     force_scale [F0], plus the soft run's parameters.
+
+    ``projector``: "polytope" (forcespace.polytope.distance_to_S, verified KKT),
+    "adapters" (:func:`project_to_S`, faster on 200-disk packings: ~15 s vs ~45 s),
+    "auto" (polytope, falling back to adapters when it cannot verify).
     """
+    if projector not in ("auto", "polytope", "adapters"):
+        raise ValueError(f"projector must be 'auto', 'polytope' or 'adapters', got {projector!r}")
     from forcespace.polytope import distance_to_S
     prob, x, m = soft_vector(rigid, soft, problem)
     viol = prob.violation(x)
     try:
+        if projector == "adapters":
+            raise RuntimeError("adapters projector requested")
         d = distance_to_S(prob, x)
         rel, ab, method = d.relative, d.absolute, d.method
-    except ValueError as exc:
-        # forcespace.polytope's active-set polish can fail on an empty active set
-        # (seen when x violates nothing but the plate row); report the violation
-        if viol > 1e-9:
+    except Exception as exc:
+        if projector == "polytope":
             raise
-        rel = ab = float("nan")
-        method = f"projection failed ({exc}); x satisfies S to violation {viol:.1e}"
+        # forcespace.polytope's active-set polish can fail (argmin of an empty active
+        # set, or an unverified KKT check) on the plate S; use our own projection
+        y, yviol, note = project_to_S(prob, x)
+        ab = float(np.linalg.norm(y - x))
+        rel = ab / (prob.force_scale * np.sqrt(prob.n_contacts))
+        method = f"{note} (polytope.distance_to_S failed: {type(exc).__name__}); " \
+                 f"projection violates S by {yviol:.1e} <Fn>"
     out = {"relative_distance": rel, "absolute_distance": ab, "max_violation_rel": viol,
            **m.summary(prob.force_scale),
            "max_overlap": soft.max_overlap(),

@@ -109,11 +109,6 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
         raise InputError(source, "slice", "LIGGGHTS export supports the full packing only "
                          "(slice loads are frictional and need per-atom torques, which "
                          "LIGGGHTS 3.8 lacks); use the pymunk adapter for slices")
-    if problem.top_plate is not None:
-        raise InputError(source, "top", "a load-controlled top plate is not available in the "
-                         "LIGGGHTS export (a moving STL plate aborts LIGGGHTS 3.8 with 'Illegal "
-                         "situation in MultiNodeMesh::registerMove'); build the problem with "
-                         "top='loads' (dead loads; may be unstable, see problem.py) or use pymunk")
     if problem.frictional_loads:
         raise InputError(source, "plate_mu / top-plate ft",
                          "the top-plate forces have tangential parts; applying them needs a "
@@ -136,8 +131,20 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
     ylo = ybot - 2.0 * rmax
     yhi = float(np.max(p.y + p.r)) + 4.0 * rmax
     skin = 0.25 * float(p.r.min())
+    # z slab: with a mesh wall a slab of thickness ~1 R trips LIGGGHTS' mesh neighbour
+    # list ("assertion failed (./src/region_neighbor_list_I.h:165)"); 10 R is fine
+    zhalf = max(5.0, 4.0 * rmax)
     mu, wmu = float(problem.mu), float(problem.wall_mu)
     n_chunks = max(1, (opt.max_steps - opt.ramp_steps) // opt.check_every)
+    n_ramp = 20 if problem.top_plate is not None else 1
+    ramp_len = max(1, opt.ramp_steps // n_ramp)
+    if n_ramp == 1:
+        ramp_cmds = f"run {opt.ramp_steps}"
+    else:   # servo target raised in n_ramp steps while the body loads ramp continuously
+        ramp_cmds = "\n".join(
+            (f"fix_modify top servo/target_val {_fmt(problem.top_plate[1] * (k + 1) / n_ramp)}\n"
+             if k else "") + f"run {ramp_len} start 0 stop {ramp_len * n_ramp}"
+            for k in range(n_ramp))
     plate = problem.top_plate
     if plate is not None:
         y_top, T, pmu = plate
@@ -145,31 +152,36 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
             raise InputError(source, "plate_mu", "bottom and top plate friction must agree")
         n_top = max(1, int(((p.b == TOP) & problem.internal).sum()))
         mobility = 1.0 / (n_top * opt.kn * opt.plate_time * t_c)
+        vmax = 0.2 * skin / dt
+        # the servo sets v = vel_max*kp*(target - F)/target along its axis (P control,
+        # LIGGGHTS 3.8 fix_mesh_surface_stress_servo.cpp): kp so that v = mobility*(target - F)
+        kp = mobility * T / vmax
         yhi = max(yhi, y_top + 4.0 * rmax)
         nstrip = int(np.ceil(W / float(p.r.min())))
         xs = np.linspace(0.0, W, nstrip + 1)
         top_lines = ["solid top"]
         for k in range(nstrip):
             x0_, x1_ = xs[k], xs[k + 1]
-            for tri in (((x0_, -0.5), (x1_, -0.5), (x1_, 0.5)), ((x0_, -0.5), (x1_, 0.5), (x0_, 0.5))):
+            for tri in (((x0_, -0.4), (x1_, -0.4), (x1_, 0.4)), ((x0_, -0.4), (x1_, 0.4), (x0_, 0.4))):
                 top_lines += ["facet normal 0 -1 0", "outer loop"]
                 top_lines += [f"vertex {_fmt(xx)} {_fmt(y_top)} {_fmt(zz)}" for xx, zz in tri]
                 top_lines += ["endloop", "endfacet"]
         top_lines.append("endsolid top")
         plate_cmds = f"""
-# top plate: frictionless STL plane y = {y_top:g} in {nstrip} strips (top.stl), load-controlled:
-#   overdamped, velocity = (force on plate - ramp*{T:g}) * {mobility:g}
-fix top all mesh/surface/stress file top.stl type 2
+# top plate: frictionless STL plane y = {y_top:g} in {nstrip} strips (top.stl), load-controlled
+#   by the servo mesh module (mesh/surface/stress/servo): it moves along y only, with velocity
+#   v = mobility*(target - force on it) along -y (P controller, mobility = {mobility:g}, kp = {kp:g}), capped at vel_max;
+#   the target ramps with the loads: fix_modify servo/target_val between ramp chunks
+fix top all mesh/surface/stress/servo file top.stl type 2 com {_fmt(0.5 * W)} {_fmt(y_top)} 0.0 ctrlPV force axis 0.0 -1.0 0.0 target_val {_fmt(T / n_ramp)} vel_max {_fmt(vmax)} kp {_fmt(kp)}
 fix wallt all wall/gran model hooke/stiffness tangential history mesh n_meshes 1 meshes top store_force yes limitForce on
-variable vzero equal 0.0
-variable vplate equal {_fmt(mobility)}*(f_top[2]-v_s*{_fmt(T)})
-fix mv all move/mesh mesh top linear/variable v_vzero v_vplate v_vzero
-variable perr equal abs(f_top[2]-{_fmt(T)})
+compute ftop all reduce sum f_force_wallt[2]
+variable ptop equal -c_ftop
+variable perr equal abs(c_ftop+{_fmt(T)})
 """
         cond = f'"${{rmax}} < {_fmt(tol_abs)} && ${{perr}} < {_fmt(tol_abs)}"'
-        thermo_extra = " f_top[2]"
+        thermo_extra = " v_ptop"
         wall_cols = " f_force_wallt[1] f_force_wallt[2]"
-        stop_plate = "variable vplate delete\nvariable vplate equal 0.0\n"
+        stop_plate = "fix_modify top servo/integrate stop\n"
     else:
         plate_cmds, thermo_extra, wall_cols, stop_plate = "", "", "", ""
         cond = f'"${{rmax}} < {_fmt(tol_abs)}"'
@@ -182,7 +194,7 @@ variable perr equal abs(f_top[2]-{_fmt(T)})
             f.write("LAMMPS data file written by forcespace_adapters.liggghts\n\n")
             f.write(f"{ids.size} atoms\n2 atom types\n\n")
             f.write(f"0.0 {_fmt(W)} xlo xhi\n{_fmt(ylo)} {_fmt(yhi)} ylo yhi\n"
-                    f"-0.5 0.5 zlo zhi\n\nAtoms\n\n")
+                    f"{_fmt(-zhalf)} {_fmt(zhalf)} zlo zhi\n\nAtoms\n\n")
             for i in ids:
                 f.write(f"{i + 1} 1 {_fmt(2 * p.r[i])} {_fmt(p.density)} "
                         f"{_fmt(x[i])} {_fmt(p.y[i])} 0.0\n")
@@ -255,7 +267,7 @@ thermo_style custom step atoms ke c_rmax{thermo_extra}
 thermo_modify norm no lost error
 thermo {opt.check_every}
 
-run {opt.ramp_steps}
+{ramp_cmds}
 variable s delete
 variable s equal 1.0
 variable it loop {n_chunks}
