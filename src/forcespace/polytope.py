@@ -415,8 +415,10 @@ def _eq_projection(xhat, Ceq, ceq, Gact):
     """Exact projection of xhat onto {Ceq x = ceq, Gact x = 0} (minimum-norm step), twice refined."""
     C = np.vstack([Ceq, Gact])
     c = np.concatenate([ceq, np.zeros(Gact.shape[0])])
-    xn = xhat - sla.lstsq(C, C @ xhat - c, lapack_driver="gelsd")[0]
-    return xn - sla.lstsq(C, C @ xn - c, lapack_driver="gelsd")[0]
+    # cond: rows that are dependent up to round-off (e.g. both Coulomb rows and
+    # a balance row through one contact) must not be amplified into big steps
+    xn = xhat - sla.lstsq(C, C @ xhat - c, cond=1e-11, lapack_driver="gelsd")[0]
+    return xn - sla.lstsq(C, C @ xn - c, cond=1e-11, lapack_driver="gelsd")[0]
 
 
 def _multipliers(Q, Gact, rhs):
@@ -435,7 +437,7 @@ def _multipliers(Q, Gact, rhs):
         return np.zeros(0), float(np.linalg.norm(br)), np.zeros(0)
     colscale = np.maximum(np.linalg.norm(Bt, axis=0), 1e-300)
     lam, res = nnls(Bt / colscale, br, maxiter=50 * Bt.shape[1])
-    free = sla.lstsq(Bt / colscale, br, lapack_driver="gelsd")[0]
+    free = sla.lstsq(Bt / colscale, br, cond=1e-11, lapack_driver="gelsd")[0]
     return lam / colscale, float(res), free / colscale
 
 
