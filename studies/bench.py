@@ -7,8 +7,8 @@ Measured, not asserted:
    frictional update paths side by side.
 2. Wall time to jam ``inputs/paper.toml`` (mu = 0 and mu = 0.1).
 3. What accuracy costs in time: equilibrium residual of the static solve
-   against sweeps and seconds, and the compression's overlap and time against
-   the per-step NLGS tolerance.
+   (cold start, zero forces) against sweeps and seconds, and the compression's
+   overlap and time against the per-step NLGS tolerance.
 
 Ratios of numbers measured in the same run are the robust part (the machine is
 shared); absolute rates carry the machine's noise.
@@ -27,7 +27,7 @@ import numpy as np
 from forcespace import __version__
 from forcespace.contacts import N_WALL_SLOTS
 from forcespace.draw import save_figure
-from forcespace.jamming import build_packing, static_solve, compress, loose_start, make_bodies
+from forcespace.jamming import build_packing, make_bodies, static_solve
 from forcespace.nlgs import add_contact_velocities, effective_masses, nlgs_solve
 from forcespace.packing import Packing
 from forcespace.scene import load_scene
@@ -95,18 +95,16 @@ def updates_per_second(p: Packing, mu: float, sweeps: int, repeats: int = 3) -> 
     return a.size * sweeps / best
 
 
-def static_convergence(scene, seed=1):
-    """Residual against sweeps and seconds of the final static solve (from cold forces)."""
-    rng = np.random.default_rng(scene["scene.seed"])
-    x, y, r, h = loose_start(scene, rng)
-    bodies = make_bodies(scene, x, y, r, h)
-    compress(scene, bodies, seed, show_progress=False)
+def static_convergence(scene, packing: Packing, seed=1):
+    """Residual against sweeps and seconds of the static solve from zero forces
+    on the jammed configuration of ``packing`` (cold start: the worst case)."""
+    bodies = make_bodies(scene, packing.x, packing.y, packing.r, packing.y_top)
     history = []
     for cap in (100, 300, 1000, 3000, 10000, 30000, 100000, 300000):
         s = scene.with_overrides(**{"jamming.static_max_sweeps": cap,
                                     "jamming.static_tolerance": 1e-13})
         t0 = time.perf_counter()
-        p, st = static_solve(s, bodies, seed, show_progress=False)
+        _p, st = static_solve(s, bodies, seed, show_progress=False)
         history.append((cap, time.perf_counter() - t0, st["static_residual"]))
         if st["static_residual"] <= 1e-13:
             break
@@ -149,14 +147,18 @@ def main():
     print("accuracy against time ...", flush=True)
     acc = {}
     for mu in (0.0, 0.1):
-        acc[f"static mu={mu}"] = static_convergence(paper.with_overrides(**{"physics.mu": mu}))
+        acc[f"static mu={mu}"] = static_convergence(paper.with_overrides(**{"physics.mu": mu}),
+                                                    packings[mu])
     quick = load_scene("inputs/quick.toml")
-    sweep_tol = []
-    for tol in (1e-4, 1e-5, 1e-6, 1e-7):
-        t0 = time.perf_counter()
-        p = build_packing(quick.with_overrides(**{"solver.tolerance": tol}), show_progress=False)
-        sweep_tol.append((tol, time.perf_counter() - t0, p.max_overlap(), p.coordination()))
-    acc["compression tolerance (quick.toml)"] = sweep_tol
+    for beta in (0.0, quick["solver.overlap_correction"]):
+        sweep_tol = []
+        for tol in (1e-4, 1e-5, 1e-6, 1e-7):
+            t0 = time.perf_counter()
+            p = build_packing(quick.with_overrides(**{"solver.tolerance": tol,
+                                                      "solver.overlap_correction": beta}),
+                              show_progress=False)
+            sweep_tol.append((tol, time.perf_counter() - t0, p.max_overlap(), p.coordination()))
+        acc[f"compression tolerance (quick.toml, overlap correction {beta})"] = sweep_tol
     results["accuracy_vs_time"] = acc
 
     (OUT / "bench.json").write_text(json.dumps(results, indent=2))
@@ -178,10 +180,13 @@ def plot(results):
     ax1.set_ylabel("relative equilibrium residual")
     ax1.set_title("static solve: accuracy vs time")
     ax1.legend()
-    h = np.array(results["accuracy_vs_time"]["compression tolerance (quick.toml)"])
-    ax2.loglog(h[:, 1], h[:, 2], "s-")
-    for tol, t, ov, _z in h:
-        ax2.annotate(f"eps={tol:.0e}", (t, ov), fontsize=8)
+    for key, hist in results["accuracy_vs_time"].items():
+        if key.startswith("compression"):
+            h = np.array(hist)
+            ax2.loglog(h[:, 1], h[:, 2], "s-", label="beta = " + key.split()[-1].rstrip(")"))
+            for tol, t, ov, _z in h:
+                ax2.annotate(f"eps={tol:.0e}", (t, ov), fontsize=7)
+    ax2.legend(title="overlap correction")
     ax2.set_xlabel("jamming wall time [s] (quick.toml)")
     ax2.set_ylabel("max overlap [R]")
     ax2.set_title("compression: NLGS tolerance vs overlap")

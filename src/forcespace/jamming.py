@@ -283,9 +283,9 @@ def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True):
     :func:`compress` ran on ``bodies``: with friction S has many points and
     this keeps the one the dynamics realised.
 
-    Returns the kernel contact arrays (a, b, nx, ny, gap, image), the forces
-    (rn, rt), and statistics. The contacts are all pairs with gap at most
-    ``jamming.contact_gap_tol``; their gaps are treated as closed.
+    Returns (packing, statistics). The packing's contacts are all pairs with
+    gap at most ``jamming.contact_gap_tol``; their gaps are treated as closed
+    in the solve (the recorded gaps are the real ones).
     """
     periodic, has_bottom, has_top, has_sides = _flags(scene)
     n = bodies.n
