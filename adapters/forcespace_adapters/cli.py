@@ -37,7 +37,7 @@ def _cmd_export(args):
         opt, yr = _liggghts_opts(args), None
     else:
         opt, yr = _pymunk_opts(args), args.slice
-    d = export(args.code, args.packing, args.output, opt, yr)
+    d = export(args.code, args.packing, args.output, opt, yr, top=args.top)
     print(f"wrote {args.code} run directory {d}")
     return 0
 
@@ -106,10 +106,13 @@ def register(subparsers):
     ex = subparsers.add_parser("export", help="write a LIGGGHTS deck or pymunk run directory")
     exs = ex.add_subparsers(dest="code", metavar="CODE")
     exs.required = True
-    el = exs.add_parser("liggghts", help="LIGGGHTS deck (full packing, frictionless plates)")
+    el = exs.add_parser("liggghts", help="LIGGGHTS deck (full packing, servo top plate)")
     ep = exs.add_parser("pymunk", help="pymunk run directory (full packing or slice)")
     for p in (el, ep):
         p.add_argument("packing", help="packing file (HDF5)")
+        p.add_argument("--top", choices=("plate", "loads"), default="plate",
+                       help="top plate load-controlled (plate, default) or replaced by its "
+                            "rigid forces as dead loads (loads; unstable for real packings)")
         p.add_argument("-o", "--output", required=True, help="run directory to write")
         p.set_defaults(func=_cmd_export)
     el.add_argument("--kn", type=float, default=lo.kn, help=f"normal stiffness [F0/R] (default {lo.kn:g})")
@@ -158,9 +161,10 @@ def register(subparsers):
     di.add_argument("soft", help="soft network file (forcespace import ...)")
     di.add_argument("packing", help="the rigid packing file")
     di.add_argument("--json", action="store_true", help="print JSON")
-    di.add_argument("--top", choices=("loads", "plate"), default="loads",
-                    help="S with the TOP contact forces fixed (loads, as LIGGGHTS runs) or "
-                         "unknown with the plate balance (plate, as pymunk runs)")
+    di.add_argument("--top", choices=("loads", "plate"), default="plate",
+                    help="S with the TOP contacts unknown and the plate balance as a row "
+                         "(plate, default: runs with a load-controlled plate) or with the TOP "
+                         "contact forces fixed (loads: dead-load runs)")
     di.add_argument("--list", action="store_true",
                     help="include the lists of unmatched and lost contacts")
     di.set_defaults(func=_cmd_distance)

@@ -59,13 +59,12 @@ def project_to_S(prob, x):
     Fallback used when ``forcespace.polytope.distance_to_S`` cannot verify its
     projection. Cone coordinates z >= 0 make every cone a pair of bounds
     (frictional contact: fn = (u+v)/(2 mu), ft = (v-u)/2; frictionless: fn = z,
-    ft = 0); a bounded least-squares solve (scipy ``lsq_linear``, BVLS) with the
+    ft = 0); a non-negative least-squares solve (scipy ``nnls``, Lawson-Hanson) with the
     equalities as heavily weighted rows finds the active set, then the
     projection restricted to that face is solved exactly (KKT system, least
     squares). Returns (y (2m,), violation of y relative to <Fn>, note).
     """
     import scipy.sparse as sp
-    from scipy.optimize import lsq_linear
     x = np.asarray(x, float)
     m = prob.n_contacts
     mu = np.broadcast_to(np.asarray(prob.mu, float), (m,))
@@ -86,9 +85,9 @@ def project_to_S(prob, x):
     scale = max(prob.force_scale, 1e-300)
     AT = A @ T
     w = 1e4
-    res = lsq_linear(np.vstack([T, w * AT]) / scale, np.concatenate([x, w * b]) / scale,
-                     bounds=(0.0, np.inf), method="bvls", tol=1e-15, max_iter=20 * nz)
-    z = res.x * 1.0
+    from scipy.optimize import nnls
+    z, _ = nnls(np.vstack([T, w * AT]) / scale, np.concatenate([x, w * b]) / scale,
+                maxiter=50 * nz)
     y_pen = T @ z
     free = z > 1e-10 * scale
     # exact projection on the face {z_i = 0 for i not free}
@@ -97,11 +96,16 @@ def project_to_S(prob, x):
     K = np.block([[TF.T @ TF, AF.T], [AF, np.zeros((ne, ne))]])
     rhs = np.concatenate([TF.T @ x, b])
     sol = np.linalg.lstsq(K, rhs, rcond=1e-13)[0]
-    zf = sol[:nf]
+    zf, nu = sol[:nf], sol[nf:]
     y = TF @ zf
+    # KKT: the bound multipliers of the fixed z (gradient T^T (y - x) + (AT)^T nu on them)
+    # must be >= 0; report the most negative one relative to <Fn>
+    g = T[:, ~free].T @ (y - x) + AT[:, ~free].T @ nu
+    kkt = max(0.0, -g.min(initial=0.0)) / scale
     if zf.min(initial=0.0) < -1e-9 * scale or prob.violation(y) > prob.violation(y_pen):
-        return y_pen, prob.violation(y_pen), "cone-coordinate BVLS with weighted equalities"
-    return y, prob.violation(y), "cone-coordinate BVLS active set + exact face projection"
+        return y_pen, prob.violation(y_pen), "cone-coordinate NNLS with weighted equalities"
+    return y, prob.violation(y), ("cone-coordinate NNLS active set + exact face projection, "
+                                  f"KKT multiplier violation {kkt:.1e} <Fn>")
 
 
 def compare(rigid: Packing, soft: Packing, problem=None, match: MatchResult | None = None,

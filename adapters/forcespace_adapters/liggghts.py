@@ -14,11 +14,19 @@ Deck directory layout (written atomically: a temporary folder renamed into place
     status.json     converged flag, steps, wall time, return code
 
 Mapping (units identical to forcespace: lengths R, forces F0, density rho):
-2-D (``dimension 2``, thin periodic z slab, ``fix enforce2d`` last), periodic
-x over [0, width), bottom plate = primitive ``yplane`` granular wall (atom
-type 2) with friction ``plate_mu``; top-plate contact forces and gravity as
-fixed per-disk loads through the centres (``fix addforce`` with atomfile
-variables, ramped in linearly). Hookean contacts ``hooke/stiffness`` with kn,
+2-D (``dimension 2``, periodic z slab 10 R thick, ``fix enforce2d`` last),
+periodic x over [0, width), bottom plate = primitive ``yplane`` granular wall
+(material type 2) with friction ``plate_mu``; gravity as fixed per-disk loads
+(``fix addforce`` with atomfile variables, ramped in linearly).
+Top plate (default, ``top="plate"`` problems): a load-controlled plane made of
+narrow STL strips (``top.stl``; a two-triangle plane with periodic x trips an
+assertion) driven by the servo mesh module ``mesh/surface/stress/servo``
+(moves along y only; v = mobility*(target - force on it), target = top_force
+raised in 20 steps; frictionless when plate_mu = 0). With a 1 R thick slab
+any mesh wall aborts in region_neighbor_list_I.h:165; 10 R works. The plate's
+final y is printed as ``FORCESPACE_PLATE_Y`` and gives the top overlaps.
+Dead-load mode (``top="loads"``): the top plate's rigid contact forces become
+fixed loads through the centres (unstable for real packings: columns buckle). Hookean contacts ``hooke/stiffness`` with kn,
 kt = kt_ratio*kn, gamma_n = gamma_t = 2*zeta*sqrt(kn/m_ref) (LIGGGHTS
 multiplies by the pair's effective mass, so the damping ratio is zeta for
 pairs of effective mass m_ref = m_min/2 and larger for heavier pairs).
@@ -182,8 +190,9 @@ variable perr equal abs(c_ftop+{_fmt(T)})
         thermo_extra = " v_ptop"
         wall_cols = " f_force_wallt[1] f_force_wallt[2]"
         stop_plate = "fix_modify top servo/integrate stop\n"
+        plate_print = 'variable yplate equal f_top[8]\nprint "FORCESPACE_PLATE_Y ${yplate}"\n'
     else:
-        plate_cmds, thermo_extra, wall_cols, stop_plate = "", "", "", ""
+        plate_cmds, thermo_extra, wall_cols, stop_plate, plate_print = "", "", "", "", ""
         cond = f'"${{rmax}} < {_fmt(tol_abs)}"'
 
     directory = Path(directory)
@@ -203,6 +212,14 @@ variable perr equal abs(c_ftop+{_fmt(T)})
                 f.write(f"# fixed load component {'xy'[comp]} on each disk [F0]\n{ids.size}\n")
                 for i in ids:
                     f.write(f"{i + 1} {_fmt(problem.load[i, comp])}\n")
+        if plate is not None:
+            top_doc = (f"# top plate: load-controlled frictionless servo mesh (see below), target force "
+                       f"{plate[1]:g} F0 ramped in 20 steps;\n#   gravity = fixed per-disk loads in "
+                       f"load_fx.txt / load_fy.txt (fix addforce), ramped over {opt.ramp_steps} steps\n")
+        else:
+            top_doc = ("# top plate: removed; its rigid contact forces (frictionless, through the centres) "
+                       "and gravity\n#   are fixed per-disk loads in load_fx.txt / load_fy.txt, applied "
+                       f"by fix addforce, ramped\n#   linearly from 0 over {opt.ramp_steps} steps\n")
         header = f"""# forcespace -> LIGGGHTS 3.8 deck (generated; do not edit by hand)
 # packing: {p.scene_name or '?'} seed {p.seed}, {n} disks, {p.n_contacts} rigid contacts;
 #   {ids.size} exported ({n - ids.size} rattlers left out: they carry no force in S)
@@ -210,10 +227,7 @@ variable perr equal abs(c_ftop+{_fmt(T)})
 # atoms: id = forcespace disk index + 1, type 1; the bottom plate is material type 2
 # box: x periodic [0, {W:g}) (= packing width), y fixed [{ylo:g}, {yhi:g}], thin periodic z slab
 # bottom plate: fix wall/gran primitive yplane {ybot:g} (packing y_bottom), friction {wmu:g} (plate_mu)
-# top plate: removed; its rigid contact forces (frictionless, through the centres) and gravity
-#   are fixed per-disk loads in load_fx.txt / load_fy.txt, applied by fix addforce, ramped
-#   linearly from 0 over {opt.ramp_steps} steps
-# contacts: hooke/stiffness, kn = {opt.kn:g} F0/R, kt = {opt.kt_ratio:g}*kn = {kt:g},
+{top_doc}# contacts: hooke/stiffness, kn = {opt.kn:g} F0/R, kt = {opt.kt_ratio:g}*kn = {kt:g},
 #   friction mu = {mu:g} (disk-disk), tangential history (Coulomb-capped spring)
 # damping: gamma_n = gamma_t = {gamma:g} (times the pair's effective mass, damping ratio
 #   {opt.damping_ratio:g} for effective mass m_ref = m_min/2 = {m_ref:g})
@@ -289,7 +303,7 @@ dump_modify dc format "%.0f %.0f %.0f %.17g %.17g %.17g %.17g %.17g %.17g %.17g 
 dump da all custom 1 atoms.dump id x y radius fx fy tqz f_force_wall[1] f_force_wall[2]{wall_cols}
 dump_modify da format "%d{' %.17g' * (8 + (2 if plate else 0))}"
 run 0
-print "FORCESPACE_DONE"
+{plate_print}print "FORCESPACE_DONE"
 """
         (tmp / "in.liggghts").write_text(script)
         if plate is not None:
@@ -432,9 +446,16 @@ def read_result(directory, rigid: Packing | None = None):
         GAP.append(y[i] - r[i] - ybot); PT.append(np.array([x[i], ybot]))
         FN.append(wall[i, 1]); FT.append(-wall[i, 0])   # t = (-1, 0) for n = (0, 1)
     top_force = 0.0
+    y_plate = float("nan")
+    if meta.get("top_plate") is not None:
+        screen = (d / "screen.txt").read_text(errors="replace").splitlines()
+        vals = [ln.split()[1] for ln in screen if ln.startswith("FORCESPACE_PLATE_Y ")]
+        if vals:        # decks older than this line: plate position unknown, gap 0
+            y_plate = float(vals[-1])
     for i in np.flatnonzero(walltop[:, 1] != 0.0):        # plate pushes disk i down
         A.append(int(i)); B.append(TOP); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
-        PT.append(np.array([x[i], y[i] + r[i]])); GAP.append(0.0)
+        yp = y_plate if np.isfinite(y_plate) else y[i] + r[i]
+        PT.append(np.array([x[i], yp])); GAP.append(yp - y[i] - r[i])
         FN.append(-walltop[i, 1]); FT.append(walltop[i, 0])   # force on TOP = -wall force
         top_force += -walltop[i, 1]
     top_load = np.asarray(meta["top_load"] or np.zeros(n))
@@ -456,7 +477,8 @@ def read_result(directory, rigid: Packing | None = None):
               plate_mu=meta["wall_mu"], seed=meta["packing"]["seed"],
               scene_name=meta["packing"]["scene_name"], scene_text="")
     if rigid is not None:
-        kw.update(gravity=rigid.gravity, density=rigid.density, y_top=rigid.y_top,
+        kw.update(gravity=rigid.gravity, density=rigid.density,
+                  y_top=y_plate if np.isfinite(y_plate) else rigid.y_top,
                   scene_text=rigid.scene_text, top_force=rigid.top_force)
     soft = Packing(x=x.copy(), y=y.copy(), r=r.copy(),
                    a=np.array(A, dtype=np.int64), b=np.array(B, dtype=np.int64),

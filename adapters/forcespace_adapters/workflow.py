@@ -41,12 +41,16 @@ def _run_json(directory) -> dict:
         raise InputError(d, "run.json", "missing: not a run directory (use forcespace export)") from None
 
 
-def export(code: str, packing_path, directory, options=None, y_range=None) -> Path:
-    """Write a run directory for ``code`` from the packing file ``packing_path``."""
+def export(code: str, packing_path, directory, options=None, y_range=None,
+           top: str = "plate") -> Path:
+    """Write a run directory for ``code`` from the packing file ``packing_path``.
+
+    ``top``: "plate" (load-controlled top plate, default for both codes) or
+    "loads" (the plate's rigid forces as fixed dead loads; unstable).
+    """
     if code not in CODES:
         raise InputError("export", "code", f"must be one of {CODES}", got=code)
     rigid = read_packing(packing_path)
-    top = "loads" if code == "liggghts" else "plate"
     prob = soft_problem(rigid, y_range, top=top, source=packing_path)
     d = Path(directory)
     if code == "liggghts":
