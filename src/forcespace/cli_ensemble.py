@@ -167,11 +167,11 @@ def register(subparsers) -> None:
                    help="relax: max violation of S relative to <Fn> per sample (default 1e-9)")
     p.add_argument("--chains", type=int, default=None, help="hit-and-run chains (default 4)")
     p.add_argument("--thin", type=int, default=None,
-                   help="hit-and-run steps between samples (default max(50, 10 dim S))")
+                   help="hit-and-run steps between samples (default max(50, dim_S^2))")
     p.add_argument("--burn-in", type=int, default=None,
-                   help="hit-and-run burn-in steps per chain (default max(500, 100 dim S))")
+                   help="hit-and-run burn-in steps per chain (default max(500, 10 dim_S^2))")
     p.add_argument("--direction", choices=("hypersphere", "coordinate"), default=None,
-                   help="hit-and-run directions (default hypersphere)")
+                   help="hit-and-run directions (default coordinate, in the MVE-rounded frame)")
     p.add_argument("--checkpoint-every", type=int, default=10, metavar="K",
                    help="write samples and checkpoint every K samples")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

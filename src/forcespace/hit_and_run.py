@@ -11,10 +11,17 @@ polytope (exact chord) and moves to a uniform point of the chord. Both
 kernels leave the uniform distribution on {H w <= s0} invariant, and a linear
 map keeps uniformity, so the x samples are uniform on S.
 
-Rounding (during burn-in only, then frozen; never adapted while samples are
-kept): a few rounds of isotropic hit-and-run, L <- Cholesky factor of the
-covariance of the visited points (in the current frame). ACHR-style
-continuous adaptation is *not* used (it is not a valid uniform sampler).
+Rounding (computed once before any sample, then FROZEN): the maximum-volume
+inscribed ellipsoid of S in its affine hull (rounding.py, Zhang-Gao interior
+point, iterated until the ellipsoid's axis ratio < 6) maps S to a polytope
+between the unit ball and the ball of radius d; w = 0 is the MVE centre.
+Covariance rounding from short walks was tried first and failed on the paper
+slices (dim 60-300, inner radius ~1e-3 <Fn>): the walks never equilibrated
+between rounds, so the covariance kept growing into thin spikes and the
+sampler over-weighted them (eta 10x too large, R-hat 1.4). Default directions
+are coordinate (CHRR, Haraldsdottir et al. 2017): O(p) per step with H in
+Fortran order, thinning d^2 steps, burn-in 10 thinning intervals per chain.
+Nothing is adapted while samples are kept.
 
 Random numbers: xoshiro256** per chain inside numba (state 4 x uint64),
 saved in the checkpoint so that a resumed run continues the same streams.
@@ -252,34 +259,21 @@ def frame(problem: StaticsProblem, analysis=None):
     return xc, N, H0, s0, free, an
 
 
-def rounding(H0, s0, d, seed, rounds=3, steps_per_point=None, points=None):
-    """Rounding matrix L (d, d) from the covariance of isotropic hit-and-run points."""
-    L = np.eye(d)
-    if d == 0:
-        return L
-    st = seed_states(seed + 7919, 1)[0].copy()
-    spp = steps_per_point or max(5, d // 2)
-    npts = points or max(4 * d, 50)
-    for _ in range(rounds):
-        H = H0 @ L
-        w = np.zeros(d)
-        pts = np.empty((npts, d))
-        har_steps(H, s0, w, st, 10 * spp, False)
-        for i in range(npts):
-            har_steps(H, s0, w, st, spp, False)
-            pts[i] = L @ w
-        C = np.cov(pts.T).reshape(d, d) + 1e-12 * np.eye(d) * max(np.trace(np.atleast_2d(np.cov(pts.T))) / d, 1e-300)
-        try:
-            L = np.linalg.cholesky(C)
-        except np.linalg.LinAlgError:
-            L = np.diag(np.sqrt(np.maximum(np.diag(C), 1e-300)))
-    return L
+def rounding(H0, s0, scale, max_rounds=4):
+    """Frozen MVE rounding: (y0 (d,), L (d, d), info) with y = y0 + L w in units of <Fn>.
+
+    The frame coordinate is y = N^T (x - x_c) / scale; S is {H0 (scale y) <= s0}.
+    """
+    from .rounding import mve_rounding
+
+    d = H0.shape[1]
+    return mve_rounding(H0 * scale, s0, np.zeros(d), max_rounds=max_rounds)
 
 
 def default_params(problem_dim: int, **kw) -> dict:
     d = max(problem_dim, 1)
-    p = {"seed": 0, "chains": 4, "thin": max(50, 10 * d), "burn_in": max(500, 100 * d),
-         "direction": "hypersphere", "rounding_rounds": 3}
+    p = {"seed": 0, "chains": 4, "thin": max(50, d * d), "burn_in": max(500, 10 * d * d),
+         "direction": "coordinate", "rounding": "mve"}
     p.update({k: v for k, v in kw.items() if v is not None})
     return p
 
@@ -304,9 +298,16 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
                             direction=direction)
     ens = ef.existing(out, problem, "hit-and-run", params)
     if ens is None:
-        L = rounding(H0, s0, d, params["seed"], params["rounding_rounds"]) if d else np.eye(0)
-        T = N @ L
-        H = H0 @ L
+        scale = problem.force_scale
+        if d:
+            y0, L, rinfo = rounding(H0, s0, scale)
+            xc = xc + scale * (N @ y0)
+            s0 = s0 - scale * (H0 @ y0)
+            T = scale * (N @ L)
+            H = np.asfortranarray(scale * (H0 @ L))
+        else:
+            T, H, rinfo = np.zeros((N.shape[0], 0)), np.zeros((H0.shape[0], 0)), {}
+        ratios = np.asarray(rinfo.get("axis_ratio", []), float)
         states = seed_states(params["seed"], params["chains"])
         W = np.zeros((params["chains"], d))
         for c in range(params["chains"]):
@@ -314,18 +315,22 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
                 har_steps(H, s0, W[c], states[c], params["burn_in"],
                           params["direction"] == "coordinate")
         ef.create(out, problem, "hit-and-run", params, packing_file, scene_name, scene_text,
-                  setup={"x_centre": xc, "T": T, "H": H, "s0": s0, "free_rows": free},
-                  setup_describe={"x_centre": ("F0", "Chebyshev centre of S (origin of w)"),
-                                  "T": ("F0", "x = x_centre + T w: affine frame x rounding"),
+                  setup={"x_centre": xc, "T": T, "H": np.ascontiguousarray(H), "s0": s0,
+                         "free_rows": free, "mve_axis_ratio": ratios},
+                  setup_describe={"x_centre": ("F0", "centre of the MVE of S (origin of w)"),
+                                  "T": ("F0", "x = x_centre + T w: affine frame x frozen MVE rounding"),
                                   "H": ("1", "non-implicit inequalities H w <= s0"),
                                   "s0": ("F0", "slack of the inequalities at the centre"),
-                                  "free_rows": ("1", "rows of problem.inequalities() kept")},
+                                  "free_rows": ("1", "rows of problem.inequalities() kept"),
+                                  "mve_axis_ratio": ("1", "axis ratio of the MVE in each "
+                                                     "rounding pass (last ~1: rounded)")},
                   checkpoint={"w": W, "rng": states},
                   checkpoint_attrs={"n_done": 0, "steps_per_sample": params["thin"]},
                   tolerance_description=f"every sample has max violation <= {MAX_VIOLATION} "
                                         f"relative to <Fn> (checked)")
         ens = ef.read(out)
-    T, H, s0 = ens.setup["T"], ens.setup["H"], ens.setup["s0"]
+    T, s0 = ens.setup["T"], ens.setup["s0"]
+    H = np.asfortranarray(ens.setup["H"])
     xc = ens.setup["x_centre"]
     W = ens.checkpoint["w"].reshape(params["chains"], d).copy()
     states = ens.checkpoint["rng"].astype(np.uint64).copy()
