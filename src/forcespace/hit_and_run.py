@@ -1,6 +1,6 @@
 """Uniform sampling of S by hit-and-run (Smith 1984) in its affine hull.
 
-Coordinates: x = x_c + T w, with x_c the Chebyshev centre of S, T = N L where
+Coordinates: x = x_c + T w, with x_c the centre of the MVE of S, T = N L where
 N (2m, d) is an orthonormal basis of the affine hull of S (d = dim S, from
 polytope.analyze) and L (d, d) a fixed rounding matrix. The non-implicit
 inequalities become ``H w <= s0`` with H = G T, s0 = -G x_c (>= 0).
