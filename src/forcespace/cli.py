@@ -54,6 +54,16 @@ def print_json(obj) -> None:
     print(json.dumps(obj, indent=2, default=default, allow_nan=True))
 
 
+def print_result(obj: dict, as_json: bool) -> None:
+    """Print a command's result: JSON, or one aligned ``key: value`` line per entry."""
+    if as_json:
+        print_json(obj)
+        return
+    width = max((len(k) for k in obj), default=0)
+    for k, v in obj.items():
+        print(f"{k:>{width}}: {v}")
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)

@@ -56,7 +56,7 @@ def _add_problem_args(p):
 
 def cmd_analyze(args) -> int:
     from . import measures
-    from .cli import print_json
+    from .cli import print_result
     from .polytope import analyze
 
     t0 = time.perf_counter()
@@ -74,11 +74,7 @@ def cmd_analyze(args) -> int:
         out["fn_range"] = an.fn_range
         out["ft_range"] = an.ft_range
     out["wall_time_s"] = time.perf_counter() - t0
-    if args.json:
-        print_json(out)
-    else:
-        for k, v in out.items():
-            print(f"{k}: {v}")
+    print_result(out, args.json)
     return 0
 
 
@@ -136,14 +132,10 @@ def ensemble_summary(path) -> dict:
 
 
 def cmd_ensemble(args) -> int:
-    from .cli import print_json
+    from .cli import print_result
 
     out = ensemble_summary(args.ensemble)
-    if args.json:
-        print_json(out)
-    else:
-        for k, v in out.items():
-            print(f"{k}: {v}")
+    print_result(out, args.json)
     return 0
 
 

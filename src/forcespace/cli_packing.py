@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .cli import print_json
+from .cli import print_result
 
 
 def register(sub):
@@ -54,11 +54,7 @@ def cmd_info(args) -> int:
     from .packing_file import read_packing
 
     s = read_packing(args.packing).summary()
-    if args.json:
-        print_json(s)
-    else:
-        for k, v in s.items():
-            print(f"{k:>26}: {v}")
+    print_result(s, args.json)
     return 0
 
 
