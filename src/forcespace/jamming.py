@@ -26,7 +26,7 @@ import numpy as np
 from .contacts import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, detect_contacts
 from .dynamics import contact_arrays, run_steps, warm_start
 from .errors import InputError, NumericalError
-from .nlgs import add_contact_velocities, effective_masses, nlgs_solve
+from .relaxation import FrozenContacts, relax
 from .packing import Packing
 from .progress import progress
 from .scene import Scene
@@ -302,45 +302,29 @@ def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True):
         raise NumericalError(f"disk {loose[0]} feels gravity but touches nothing: the "
                              "configuration is not static (raise jamming.window or lower "
                              "jamming.velocity_tol)")
-    mn, mt = effective_masses(a, b, nx, ny, ra, rb, bodies.inv_mx, bodies.inv_my, bodies.inv_i)
-    closed = np.zeros_like(gap)
     if bodies.contacts is not None:  # start from the forces the dynamics ended with
         rn, rt = warm_start(keys, *bodies.contacts)
         rt[mu == 0.0] = 0.0
     else:
         rn = np.zeros(a.shape[0])
         rt = np.zeros(a.shape[0])
-    tol = scene["jamming.static_tolerance"]
-    cap = scene["jamming.static_max_sweeps"]
-    chunk = 100
-    sweeps = 0
-    n_tang = 0
-    residual = np.inf
-    t0 = time.perf_counter()
+    system = FrozenContacts(a=a, b=b, nx=nx, ny=ny, ra=ra, rb=rb, mu=mu, inv_mx=bodies.inv_mx,
+                            inv_my=bodies.inv_my, inv_i=bodies.inv_i,
+                            v_ext=(np.zeros(n + N_WALL_SLOTS), bodies.fy_ext * bodies.inv_my,
+                                   np.zeros(n + N_WALL_SLOTS)))
     packing_of = _packing_view(scene, bodies, a, b, nx, ny, gap, image)
+    t0 = time.perf_counter()
     bar = progress(total=None, desc="static solve", unit="sweep", disable=not show_progress)
+
+    def report(sweeps, residual):
+        bar.update(sweeps)
+        bar.set_postfix(residual=f"{residual:.2e}", refresh=False)
+
     try:
-        while sweeps < cap:
-            # velocities recomputed from the forces each chunk (no drift): v = dt M^-1 F_net
-            vx = np.zeros(n + N_WALL_SLOTS)
-            vy = bodies.fy_ext * bodies.inv_my
-            w = np.zeros(n + N_WALL_SLOTS)
-            add_contact_velocities(a, b, nx, ny, ra, rb, rn, rt, bodies.inv_mx, bodies.inv_my,
-                                   bodies.inv_i, 1.0, vx, vy, w)
-            sw, _rel, _nn, ntg = nlgs_solve(a, b, nx, ny, ra, rb, closed, mu, mn, mt, rn, rt,
-                                            vx, vy, w, bodies.inv_mx, bodies.inv_my,
-                                            bodies.inv_i, 1.0, 0.0, min(chunk, cap - sweeps),
-                                            seed + sweeps)
-            sweeps += sw
-            n_tang += ntg
-            residual = packing_of(rn, rt).equilibrium_residual()
-            if not np.isfinite(residual):
-                raise NumericalError("non-finite forces in the static solve")
-            bar.update(sw)
-            bar.set_postfix(residual=f"{residual:.2e}", refresh=False)
-            if residual <= tol:
-                break
-            chunk = min(2 * chunk, 20000)
+        sweeps, residual, n_tang = relax(
+            system, rn, rt, lambda rn, rt: packing_of(rn, rt).equilibrium_residual(),
+            scene["jamming.static_tolerance"], scene["jamming.static_max_sweeps"], seed,
+            chunk=100, max_chunk=20000, on_chunk=report, raise_at_cap=False)
     finally:
         bar.close()
     stats = {"static_sweeps": sweeps, "static_tangential_updates": n_tang,

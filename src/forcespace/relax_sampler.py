@@ -26,7 +26,7 @@ import numpy as np
 
 from . import ensemble_file as ef
 from .errors import InputError, NumericalError
-from .nlgs import add_contact_velocities, effective_masses, nlgs_solve
+from .relaxation import FrozenContacts, relax
 from .polytope import check_bounded, check_feasible
 from .statics import StaticsProblem
 
@@ -34,31 +34,26 @@ DEFAULT_TOL = 1e-9
 
 
 class Relaxer:
-    """Kernel arrays of one problem for repeated NLGS relaxations."""
+    """A problem's frozen contact network for repeated NLGS relaxations."""
 
     def __init__(self, problem: StaticsProblem):
         p = problem
         n = p.n_interior
         nb = n + p.n_supports
         self.problem = p
-        self.inv_m = np.zeros(nb)
-        self.inv_m[:n] = 1.0 / p.mass
-        self.inv_i = np.zeros(nb)
-        self.inv_i[:n] = 1.0 / (0.5 * p.mass * p.radius ** 2)
-        self.ka = p.ka.astype(np.int64)
-        self.kb = p.kb.astype(np.int64)
-        self.nx = p.nx.astype(float)
-        self.ny = p.ny.astype(float)
-        self.ra = p.ra.astype(float)
-        self.rb = p.rb.astype(float)
-        self.mu = p.mu.astype(float)
-        self.gap = np.zeros(p.n_contacts)
-        self.mn, self.mt = effective_masses(self.ka, self.kb, self.nx, self.ny, self.ra, self.rb,
-                                            self.inv_m, self.inv_m, self.inv_i)
-        self.v_ext = (np.zeros(nb), np.zeros(nb), np.zeros(nb))
-        self.v_ext[0][:n] = p.load_force[:, 0] / p.mass
-        self.v_ext[1][:n] = p.load_force[:, 1] / p.mass
-        self.v_ext[2][:n] = p.load_torque * self.inv_i[:n]
+        inv_m = np.zeros(nb)
+        inv_m[:n] = 1.0 / p.mass
+        inv_i = np.zeros(nb)
+        inv_i[:n] = 1.0 / (0.5 * p.mass * p.radius ** 2)
+        v_ext = (np.zeros(nb), np.zeros(nb), np.zeros(nb))
+        v_ext[0][:n] = p.load_force[:, 0] / p.mass
+        v_ext[1][:n] = p.load_force[:, 1] / p.mass
+        v_ext[2][:n] = p.load_torque * inv_i[:n]
+        self.system = FrozenContacts(
+            a=p.ka.astype(np.int64), b=p.kb.astype(np.int64), nx=p.nx.astype(float),
+            ny=p.ny.astype(float), ra=p.ra.astype(float), rb=p.rb.astype(float),
+            mu=p.mu.astype(float), inv_mx=inv_m, inv_my=inv_m, inv_i=inv_i, v_ext=v_ext)
+        self.mu = self.system.mu
 
     def relax(self, x, tol=DEFAULT_TOL, chunk=200, max_sweeps=2_000_000, seed=0,
               stall_sweeps=20_000):
@@ -66,36 +61,18 @@ class Relaxer:
         rn = np.ascontiguousarray(x[0::2], dtype=float).copy()
         rt = np.ascontiguousarray(x[1::2], dtype=float).copy()
         rt[self.mu == 0.0] = 0.0
-        sweeps = 0
         out = np.empty(2 * rn.size)
-        best, since = np.inf, 0
-        while True:
-            vx, vy, w = (v.copy() for v in self.v_ext)
-            add_contact_velocities(self.ka, self.kb, self.nx, self.ny, self.ra, self.rb, rn, rt,
-                                   self.inv_m, self.inv_m, self.inv_i, 1.0, vx, vy, w)
-            s, _, _, _ = nlgs_solve(self.ka, self.kb, self.nx, self.ny, self.ra, self.rb,
-                                    self.gap, self.mu, self.mn, self.mt, rn, rt, vx, vy, w,
-                                    self.inv_m, self.inv_m, self.inv_i, 1.0, 0.0, chunk,
-                                    (seed * 1_000_003 + sweeps) % (2**31 - 1))
-            sweeps += s
+
+        def violation(rn, rt):
             out[0::2] = rn
             out[1::2] = rt
-            viol = self.problem.violation(out)
-            if viol <= tol:
-                return out.copy(), sweeps, viol
-            if viol < 0.99 * best:
-                best, since = viol, 0
-            else:
-                since += chunk
-            if since >= stall_sweeps:
-                raise NumericalError(f"NLGS relaxation stalled at violation {viol:.2e} x <Fn> "
-                                     f"(no progress in {since} sweeps): it converged to a "
-                                     f"non-static solution of the contact problem (bodies keep "
-                                     f"moving, e.g. sliding); this start/kick does not relax")
-            if sweeps >= max_sweeps or not np.isfinite(viol):
-                raise NumericalError(f"NLGS relaxation did not reach violation {tol:.1e} x <Fn> "
-                                     f"in {sweeps} sweeps (reached {viol:.2e}); raise max_sweeps "
-                                     f"or tol")
+            return self.problem.violation(out)
+
+        sweeps, viol, _ = relax(self.system, rn, rt, violation, tol, max_sweeps, seed, chunk,
+                                stall_sweeps=stall_sweeps)
+        out[0::2] = rn
+        out[1::2] = rt
+        return out.copy(), sweeps, viol
 
 
 def kick(x, mu, scale, rng):
