@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .h5io import atomic_path
 from .packing import Packing
 
 
@@ -85,11 +86,8 @@ def draw_packing(p: Packing, path, title: str | None = None, values=None,
 
 def save_figure(fig, path, dpi=150):
     """Save ``fig`` at ``path``; a PNG also gets a PDF twin. Atomic via temp + rename."""
-    import os
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     targets = [path] + ([path.with_suffix(".pdf")] if path.suffix.lower() == ".png" else [])
     for t in targets:
-        tmp = t.with_name(f".{t.name}.tmp{t.suffix}")
-        fig.savefig(tmp, dpi=dpi)
-        os.replace(tmp, t)
+        with atomic_path(t) as tmp:
+            fig.savefig(tmp, dpi=dpi, format=t.suffix.lstrip(".").lower() or "png")

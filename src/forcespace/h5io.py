@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -19,23 +20,17 @@ from .errors import InputError
 
 
 @contextlib.contextmanager
-def atomic_h5(path, mode_attrs: dict | None = None):
-    """Open a new HDF5 file for writing at a temporary path; rename on success.
+def atomic_path(path):
+    """Yield a temporary path beside ``path``; rename it over ``path`` on success.
 
-    Yields an open ``h5py.File``. On exception the temporary file is removed and
-    ``path`` is left untouched. Root attributes ``forcespace_version`` and
-    ``file_kind`` (from ``mode_attrs``) are set.
+    On any exception the temporary file is removed and ``path`` is untouched.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["forcespace_version"] = __version__
-            for k, v in (mode_attrs or {}).items():
-                f.attrs[k] = v
-            yield f
+        yield tmp
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
@@ -43,30 +38,30 @@ def atomic_h5(path, mode_attrs: dict | None = None):
         raise
 
 
-def atomic_replace_copy(path):
-    """Context manager for *modifying* an existing HDF5 file atomically.
+@contextlib.contextmanager
+def atomic_h5(path, mode_attrs: dict | None = None):
+    """Open a new HDF5 file for writing at a temporary path; rename on success.
 
-    Copies ``path`` to a temporary file, yields it opened in ``r+`` mode and
-    renames it over ``path`` on success (used by resumable samplers).
+    Yields an open ``h5py.File``. Root attributes ``forcespace_version`` and
+    ``file_kind`` (from ``mode_attrs``) are set.
     """
-    import shutil
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["forcespace_version"] = __version__
+        for k, v in (mode_attrs or {}).items():
+            f.attrs[k] = v
+        yield f
 
-    @contextlib.contextmanager
-    def _cm():
-        p = Path(path)
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
-        os.close(fd)
-        try:
-            shutil.copyfile(p, tmp)
-            with h5py.File(tmp, "r+") as f:
-                yield f
-            os.replace(tmp, p)
-        except BaseException:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(tmp)
-            raise
 
-    return _cm()
+@contextlib.contextmanager
+def atomic_replace_copy(path):
+    """Modify an existing HDF5 file atomically: edit a copy opened ``r+``, then rename.
+
+    Used by the resumable samplers.
+    """
+    with atomic_path(path) as tmp:
+        shutil.copyfile(path, tmp)
+        with h5py.File(tmp, "r+") as f:
+            yield f
 
 
 def write_dataset(group, name, data, units: str, description: str, columns=None):

@@ -26,6 +26,7 @@ import numpy as np
 from .contacts import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, detect_contacts
 from .dynamics import contact_arrays, run_steps, warm_start
 from .errors import InputError, NumericalError
+from .h5io import atomic_path
 from .relaxation import FrozenContacts, relax
 from .packing import Packing
 from .progress import progress
@@ -131,14 +132,11 @@ def _scene_identity(scene: Scene) -> str:
 
 def save_checkpoint(path, scene: Scene, bodies: Bodies, run: dict) -> None:
     """Write the compression state atomically (temp file, then rename)."""
-    import os
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp.npz")
-    np.savez(tmp, scene=_scene_identity(scene), log=np.array(run["log"], float).reshape(-1, 5),
-             totals=run["totals"], keys=run["keys"], rn=run["rn"], rt=run["rt"],
-             steps=run["steps"],
-             **{k: getattr(bodies, k) for k in _STATE_ARRAYS})
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, scene=_scene_identity(scene),
+                 log=np.array(run["log"], float).reshape(-1, 5), totals=run["totals"],
+                 keys=run["keys"], rn=run["rn"], rt=run["rt"], steps=run["steps"],
+                 **{k: getattr(bodies, k) for k in _STATE_ARRAYS})
 
 
 def load_checkpoint(path, scene: Scene, bodies: Bodies) -> dict | None:
