@@ -65,6 +65,11 @@ def test_frictionless_jammed_packing_is_determinate(quick_packing, tmp_path):
         an = analyze(prob, ranges=False)
         assert an.feasible and an.bounded
         assert an.dim_S == 0, prob.kind
+        # isostatic: the equilibrium equations fix every unknown, S is one point
+        assert an.degree_of_indeterminacy == 0 and an.rank_A == an.n_unknowns
+        assert an.centre_radius == 0.0
+        assert np.linalg.norm(an.centre - prob.x_jammed) <= 1e-8 * prob.force_scale * \
+            np.sqrt(prob.n_contacts)
     prob = slice_problem(quick_packing, 10.0)
     out = tmp_path / "r.h5"
     res = rs.sample(prob, 20, out, seed=0, tol=1e-9)

@@ -93,7 +93,7 @@ class PolytopeAnalysis:
     n_interior: int
     n_contacts: int
     n_unknowns: int                 # free columns: 2m minus fixed ft of mu=0 contacts
-    rank_A: int
+    rank_A: int                     # rank of A over the unknown columns
     full_row_rank: bool
     degree_of_indeterminacy: int    # n_unknowns - rank([A; fixed])
     dim_S: int | None
@@ -254,7 +254,8 @@ def analyze(problem: StaticsProblem, ranges: bool = True, centre: bool = True,
     m2 = problem.n_columns
     n_fixed = problem.fixed_columns().size
     n_unknowns = m2 - n_fixed
-    rank_A = _rank(problem.A)
+    free_cols = np.setdiff1d(np.arange(m2), problem.fixed_columns())
+    rank_A = _rank(problem.A[:, free_cols])  # rank over the unknowns (not ft of mu=0 contacts)
     Eq0, _ = _eq_system(problem)
     doi = m2 - _rank(Eq0)
     out = PolytopeAnalysis(
@@ -344,6 +345,9 @@ def chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
         N = null_basis(Eq)
     lo, hi = problem.bounds()
     m2 = problem.n_columns
+    if N.shape[1] == 0:  # S is a single point: the centre is that point, radius 0
+        x = sla.lstsq(Eq.toarray(), rhs)[0]
+        return x, 0.0
     free = np.setdiff1d(np.arange(G.shape[0]), implicit_rows)
     Gf = G[free]
     w = np.linalg.norm((Gf @ N), axis=1) if N.shape[1] else np.zeros(free.size)
