@@ -135,6 +135,10 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
     W = float(p.width)
     x = np.mod(p.x, W)
     ybot = float(problem.bottom_wall)
+    # deck y = packing y - ys: with a plate, ys = y_top puts the plate near y = 0 so its
+    # per-step servo motion (~1e-15 R near convergence at large kn) is not lost to the
+    # rounding of y ~ 10 (that floor left the plate force error at ~1e-6 <Fn> at K = 1e7)
+    ys = float(problem.top_plate[0]) if problem.top_plate is not None else 0.0
     rmax = float(p.r.max())
     ylo = ybot - 2.0 * rmax
     yhi = float(np.max(p.y + p.r)) + 4.0 * rmax
@@ -172,7 +176,7 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
             x0_, x1_ = xs[k], xs[k + 1]
             for tri in (((x0_, -0.4), (x1_, -0.4), (x1_, 0.4)), ((x0_, -0.4), (x1_, 0.4), (x0_, 0.4))):
                 top_lines += ["facet normal 0 -1 0", "outer loop"]
-                top_lines += [f"vertex {_fmt(xx)} {_fmt(y_top)} {_fmt(zz)}" for xx, zz in tri]
+                top_lines += [f"vertex {_fmt(xx)} {_fmt(y_top - ys)} {_fmt(zz)}" for xx, zz in tri]
                 top_lines += ["endloop", "endfacet"]
         top_lines.append("endsolid top")
         plate_cmds = f"""
@@ -180,7 +184,7 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
 #   by the servo mesh module (mesh/surface/stress/servo): it moves along y only, with velocity
 #   v = mobility*(target - force on it) along -y (P controller, mobility = {mobility:g}, kp = {kp:g}), capped at vel_max;
 #   the target ramps with the loads: fix_modify servo/target_val between ramp chunks
-fix top all mesh/surface/stress/servo file top.stl type 2 com {_fmt(0.5 * W)} {_fmt(y_top)} 0.0 ctrlPV force axis 0.0 -1.0 0.0 target_val {_fmt(T / n_ramp)} vel_max {_fmt(vmax)} kp {_fmt(kp)}
+fix top all mesh/surface/stress/servo file top.stl type 2 com {_fmt(0.5 * W)} {_fmt(y_top - ys)} 0.0 ctrlPV force axis 0.0 -1.0 0.0 target_val {_fmt(T / n_ramp)} vel_max {_fmt(vmax)} kp {_fmt(kp)}
 fix wallt all wall/gran model hooke/stiffness tangential history mesh n_meshes 1 meshes top store_force yes limitForce on
 compute ftop all reduce sum f_force_wallt[2]
 variable ptop equal -c_ftop
@@ -202,11 +206,11 @@ variable perr equal abs(c_ftop+{_fmt(T)})
         with open(tmp / "data.lmp", "w") as f:
             f.write("LAMMPS data file written by forcespace_adapters.liggghts\n\n")
             f.write(f"{ids.size} atoms\n2 atom types\n\n")
-            f.write(f"0.0 {_fmt(W)} xlo xhi\n{_fmt(ylo)} {_fmt(yhi)} ylo yhi\n"
+            f.write(f"0.0 {_fmt(W)} xlo xhi\n{_fmt(ylo - ys)} {_fmt(yhi - ys)} ylo yhi\n"
                     f"{_fmt(-zhalf)} {_fmt(zhalf)} zlo zhi\n\nAtoms\n\n")
             for i in ids:
                 f.write(f"{i + 1} 1 {_fmt(2 * p.r[i])} {_fmt(p.density)} "
-                        f"{_fmt(x[i])} {_fmt(p.y[i])} 0.0\n")
+                        f"{_fmt(x[i])} {_fmt(p.y[i] - ys)} 0.0\n")
         for comp, name in ((0, "load_fx.txt"), (1, "load_fy.txt")):
             with open(tmp / name, "w") as f:
                 f.write(f"# fixed load component {'xy'[comp]} on each disk [F0]\n{ids.size}\n")
@@ -225,7 +229,8 @@ variable perr equal abs(c_ftop+{_fmt(T)})
 #   {ids.size} exported ({n - ids.size} rattlers left out: they carry no force in S)
 # units: lj numbers = forcespace units: lengths R, forces F0, density rho (mass = rho*pi*r^2 in 2-D)
 # atoms: id = forcespace disk index + 1, type 1; the bottom plate is material type 2
-# box: x periodic [0, {W:g}) (= packing width), y fixed [{ylo:g}, {yhi:g}], thin periodic z slab
+# box: x periodic [0, {W:g}) (= packing width), y fixed [{ylo - ys:g}, {yhi - ys:g}], z slab +-{zhalf:g}
+# y shift: deck y = packing y - {ys!r} (plate near y = 0, see liggghts.py)
 # bottom plate: fix wall/gran primitive yplane {ybot:g} (packing y_bottom), friction {wmu:g} (plate_mu)
 {top_doc}# contacts: hooke/stiffness, kn = {opt.kn:g} F0/R, kt = {opt.kt_ratio:g}*kn = {kt:g},
 #   friction mu = {mu:g} (disk-disk), tangential history (Coulomb-capped spring)
@@ -260,7 +265,7 @@ pair_style gran model hooke/stiffness tangential history limitForce on
 pair_coeff * *
 timestep {_fmt(dt)}
 
-fix wall all wall/gran model hooke/stiffness tangential history primitive type 2 yplane {_fmt(ybot)} store_force yes limitForce on
+fix wall all wall/gran model hooke/stiffness tangential history primitive type 2 yplane {_fmt(ybot - ys)} store_force yes limitForce on
 fix integr all nve/sphere
 
 variable s equal ramp(0.0,1.0){plate_cmds}
@@ -284,9 +289,13 @@ thermo {opt.check_every}
 {ramp_cmds}
 variable s delete
 variable s equal 1.0
+run {opt.check_every}
+# later chunks without re-setup ("pre no"): a full setup every chunk kicked the state;
+# the free drift along x (frictionless plates, periodic x) is removed before each chunk
 variable it loop {n_chunks}
 label loop
-run {opt.check_every}
+velocity all zero linear
+run {opt.check_every} pre no post no
 if {cond} then "jump SELF converged"
 next it
 jump SELF loop
@@ -310,7 +319,7 @@ run 0
             (tmp / "top.stl").write_text("\n".join(top_lines) + "\n")
         meta = {"deck_version": DECK_VERSION, "code": "liggghts", "options": asdict(opt),
                 "n_disks": n, "exported": ids.tolist(), "width": W,
-                "rigid_xyr": np.column_stack([p.x, p.y, p.r]).tolist(), "y_bottom": ybot, "m_ref": m_ref, "t_c": t_c,
+                "rigid_xyr": np.column_stack([p.x, p.y, p.r]).tolist(), "y_bottom": ybot, "y_shift": ys, "m_ref": m_ref, "t_c": t_c,
                 "dt": dt, "gamma": gamma, "kt": kt, "force_scale": scale,
                 "tolerance_abs": tol_abs, "mu": mu, "wall_mu": wmu,
                 "load": problem.load.tolist(),
@@ -420,7 +429,8 @@ def read_result(directory, rigid: Packing | None = None):
     resid = np.zeros((n, 2))
     wall = np.zeros((n, 2))
     k = atoms[:, 0].astype(np.int64) - 1
-    x[k], y[k], r[k] = atoms[:, 1], atoms[:, 2], atoms[:, 3]
+    ys = float(meta.get("y_shift", 0.0))
+    x[k], y[k], r[k] = atoms[:, 1], atoms[:, 2] + ys, atoms[:, 3]
     resid[k] = atoms[:, 4:6]
     wall[k] = atoms[:, 7:9]
     walltop = np.zeros((n, 2))
@@ -451,7 +461,7 @@ def read_result(directory, rigid: Packing | None = None):
         screen = (d / "screen.txt").read_text(errors="replace").splitlines()
         vals = [ln.split()[1] for ln in screen if ln.startswith("FORCESPACE_PLATE_Y ")]
         if vals:        # decks older than this line: plate position unknown, gap 0
-            y_plate = float(vals[-1])
+            y_plate = float(vals[-1]) + ys
     for i in np.flatnonzero(walltop[:, 1] != 0.0):        # plate pushes disk i down
         A.append(int(i)); B.append(TOP); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
         yp = y_plate if np.isfinite(y_plate) else y[i] + r[i]
