@@ -3,9 +3,10 @@
 Usage::
 
     python studies/soft_vs_rigid.py PACK_mu0.h5 PACK_mu0.1.h5 PACK_mu0.5.h5 [--out studies/out]
-        [--kn-ladder 1e2 1e3 1e4 1e5 1e6] [--quick]
+        [--kn-ladder 1e3 1e4 1e5 1e6 1e7] [--quick]
 
-Packings come from ``forcespace pack inputs/paper.toml --mu M -o PACK.h5``.
+Packings come from ``forcespace pack inputs/paper.toml --mu M -o PACK.h5``; pass mu = 0.1 first.
+Distances are to the plate S (TOP contacts unknown + plate balance row).
 Per packing: a LIGGGHTS stiffness ladder (kn = K * <Fn>/R; top plate a frictionless
 load-controlled plate via the servo mesh module), kt/kn = 2/7 and 1 at the middle K;
 pymunk (load-controlled plate) at several iteration counts and time steps.

@@ -404,8 +404,10 @@ def read_result(directory, rigid: Packing | None = None):
 
     Contacts: disk pairs from ``contacts.dump`` (a = first atom, b = second,
     image from the minimal-image separation), bottom-wall contacts from the
-    per-atom wall force (a = BOTTOM), and the fixed top loads as TOP contacts
-    (b = TOP, fn = applied load, so the plate balance holds). fn, ft are the
+    per-atom wall force (a = BOTTOM), and TOP contacts (b = TOP): with a servo
+    plate the per-atom plate forces (gap from the plate's final y, printed as
+    FORCESPACE_PLATE_Y and shifted back by deck.json ``y_shift``); in dead-load
+    mode the fixed top loads (fn = applied load, so the plate balance holds). fn, ft are the
     soft force on b in the soft geometry (normal from the final centres).
     ``rigid`` supplies box, friction and scene fields; without it they come
     from deck.json. Returns (soft_packing, run_info dict).
