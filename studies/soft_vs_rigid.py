@@ -54,7 +54,7 @@ def _measure(p, soft, top, S_cache):
     if top not in S_cache:
         S_cache[top] = make_problem(p, top)
     try:
-        c = compare(p, soft, S_cache[top], projector="adapters")
+        c = compare(p, soft, S_cache[top])
     except Exception as exc:  # report, do not abort the study
         return {"relative_distance": float("nan"), "error": f"{type(exc).__name__}: {exc}"}
     c.pop("unmatched")
