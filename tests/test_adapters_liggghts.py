@@ -55,7 +55,6 @@ def test_readback_in_equilibrium_to_tolerance(runs):
         # run's stopping tolerance; the convergence check saw it with damping terms on
         assert info["max_residual_force"] <= 3 * info["tolerance_abs"]
         force, torque, plate = soft.net_forces()
-        scale = prob.force_scale
         assert np.abs(force).max() <= 3 * info["tolerance_abs"]
         assert abs(plate) <= 3 * info["tolerance_abs"]          # plate carries top_force
         assert (soft.b == -2).sum() > 0

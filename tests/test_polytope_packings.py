@@ -1,19 +1,15 @@
 """S of real (engine-built) packings, the projection polish regression, MVE rounding."""
-import dataclasses
-
 import numpy as np
 import pytest
-import scipy.sparse as sp
 
 from ensemble_cases import grooves, lattice_rows
 from forcespace import ensemble_file as ef
 from forcespace import hit_and_run as har
 from forcespace import relax_sampler as rs
 from forcespace.measures import eta
-from forcespace.packing import BOTTOM, TOP
 from forcespace.polytope import _polish, analyze, distance_to_S
 from forcespace.rounding import mve
-from forcespace.statics import build_problem, full_problem, slice_problem
+from forcespace.statics import full_problem, plate_problem, slice_problem
 
 
 @pytest.fixture(scope="module")
@@ -23,18 +19,6 @@ def quick_packing():
     from pathlib import Path
     scene = load_scene(Path(__file__).parents[1] / "inputs" / "quick.toml")
     return build_packing(scene.with_overrides(**{"disks.n": 20}), show_progress=False)
-
-
-def _plate_problem(p):
-    """Full packing, BOTTOM and TOP contacts unknown, plus the plate-balance row
-    (the adapters' set-up that made the old polish call argmin on an empty set)."""
-    prob = build_problem(p, np.ones(p.n_disks, dtype=bool), unknown_walls=(BOTTOM, TOP),
-                         kind="full_plate", source="plate")
-    cols = 2 * np.flatnonzero(p.b[prob.contacts] == TOP)
-    row = sp.csr_matrix((np.ones(cols.size), (np.zeros(cols.size, dtype=int), cols)),
-                        shape=(1, prob.n_columns))
-    return dataclasses.replace(prob, A=sp.vstack([prob.A, row]).tocsr(),
-                               b=np.append(prob.b, p.top_force))
 
 
 def test_polish_with_an_empty_active_set_does_not_fail():
@@ -49,7 +33,7 @@ def test_polish_with_an_empty_active_set_does_not_fail():
 
 @pytest.mark.parametrize("pert", [0.0, 1e-6, 1e-2])
 def test_projection_on_the_plate_balance_problem(quick_packing, pert):
-    prob = _plate_problem(quick_packing)
+    prob = plate_problem(quick_packing)
     rng = np.random.default_rng(1)
     x = prob.x_jammed + pert * prob.force_scale * rng.normal(size=prob.n_columns)
     d = distance_to_S(prob, x)

@@ -4,7 +4,7 @@ Uses only forcespace's public statics API and ``forcespace.polytope.distance_to_
 (exact Euclidean projection). Two ensembles of the full packing:
 
 * ``top="plate"`` (default, matches the soft runs with a load-controlled top
-  plate): :func:`plate_problem` -- TOP contacts are unknowns too (friction
+  plate): ``forcespace.statics.plate_problem`` -- TOP contacts are unknowns too (friction
   plate_mu) and one extra row holds the plate's vertical balance
   sum(fn_top) = top_force. This is S of the paper's protocol.
 * ``top="loads"``: ``forcespace.statics.full_problem`` -- TOP contact forces
@@ -22,28 +22,10 @@ from forcespace.packing import Packing
 from .matching import MatchResult, match_contacts
 
 
-def plate_problem(rigid: Packing):
-    """S of the full packing with the TOP plate's contacts unknown and its balance as a row."""
-    import dataclasses
-
-    import scipy.sparse as sp
-    from forcespace.packing import BOTTOM, TOP
-    from forcespace.statics import build_problem
-    prob = build_problem(rigid, np.ones(rigid.n_disks, dtype=bool), unknown_walls=(BOTTOM, TOP),
-                         kind="full_plate", source="plate_problem")
-    top_cols = 2 * np.flatnonzero(rigid.b[prob.contacts] == TOP)
-    row = sp.csr_matrix((np.ones(top_cols.size), (np.zeros(top_cols.size, dtype=int), top_cols)),
-                        shape=(1, prob.n_columns))
-    return dataclasses.replace(prob, A=sp.vstack([prob.A, row]).tocsr(),
-                               b=np.append(prob.b, rigid.top_force))
-
-
 def make_problem(rigid: Packing, top: str = "plate"):
     """The statics problem (S) to measure distances in; see the module docstring."""
-    if top == "plate":
-        return plate_problem(rigid)
-    from forcespace.statics import full_problem
-    return full_problem(rigid)
+    from forcespace.statics import full_problem, plate_problem
+    return plate_problem(rigid) if top == "plate" else full_problem(rigid)
 
 
 def soft_vector(rigid: Packing, soft: Packing, problem=None):

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from forcespace.errors import InputError
-from forcespace.packing import BOTTOM, LEFT, RIGHT, TOP, Packing
+from forcespace.packing import LEFT, RIGHT, TOP, Packing
 
 
 @dataclass

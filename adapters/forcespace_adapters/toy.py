@@ -33,7 +33,6 @@ def two_row_packing(n_cols: int = 5, spacing: float = 1.2, load: float = 1.0,
     r = np.concatenate([np.ones(n_cols), ru])
     y_top = float(yu.max() + ru[np.argmax(yu)])
     a, b, img, nrm, pts, fn = [], [], [], [], [], []
-    n = 2 * n_cols
     tops = [j for j in range(n_cols) if abs(yu[j] + ru[j] - y_top) < 1e-12]
     P = load * n_cols / len(tops)
     for i in range(n_cols):                       # bottom plate contacts

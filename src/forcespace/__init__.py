@@ -13,3 +13,5 @@ except PackageNotFoundError:  # running from a source tree without install
     __version__ = "0.0.0+unknown"
 
 from .errors import ForcespaceError, InputError, NumericalError  # noqa: E402
+
+__all__ = ["__version__", "ForcespaceError", "InputError", "NumericalError"]

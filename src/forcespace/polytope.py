@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
-from scipy.optimize import linprog, lsq_linear
+from scipy.optimize import linprog
 
 from .errors import InputError, NumericalError
 from .statics import StaticsProblem

@@ -33,6 +33,7 @@ gap exceeds ``gap_tol`` [R] are not contacts (open) and are dropped as well.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -346,4 +347,24 @@ def full_problem(packing: Packing, gap_tol: float = np.inf, source: str = "") ->
                          gap_tol=gap_tol, source=source)
 
 
-__all__ = ["StaticsProblem", "slice_problem", "full_problem", "build_problem", "TOP"]
+def plate_problem(packing: Packing, gap_tol: float = np.inf, source: str = "") -> StaticsProblem:
+    """Full packing under a load-controlled top plate: TOP contacts are unknowns too
+    (friction plate_mu) and one extra row holds the plate's vertical balance
+    sum(fn over TOP contacts) = top_force.
+
+    This is S of the packing protocol itself and of soft-particle runs with a
+    plate; :func:`full_problem` (TOP forces fixed at their jammed values) is a
+    subset of it.
+    """
+    mask = np.ones(packing.n_disks, dtype=bool)
+    prob = build_problem(packing, mask, unknown_walls=(BOTTOM, TOP, LEFT, RIGHT),
+                         kind="full_plate", gap_tol=gap_tol, source=source)
+    top_cols = 2 * np.flatnonzero(np.asarray(packing.b)[prob.contacts] == TOP)
+    row = sp.csr_matrix((np.ones(top_cols.size), (np.zeros(top_cols.size, dtype=int), top_cols)),
+                        shape=(1, prob.n_columns))
+    return dataclasses.replace(prob, A=sp.vstack([prob.A, row]).tocsr(),
+                               b=np.append(prob.b, packing.top_force))
+
+
+__all__ = ["StaticsProblem", "slice_problem", "full_problem", "plate_problem", "build_problem",
+           "TOP"]
