@@ -2,7 +2,7 @@
 
 Usage::
 
-    python studies/soft_vs_rigid.py PACK_mu0.h5 PACK_mu0.1.h5 PACK_mu0.5.h5 [--out studies/out]
+    python studies/soft_vs_rigid.py PACK_mu0.h5 PACK_mu0.1.h5 PACK_mu0.5.h5 [--out studies/out/soft_vs_rigid]
         [--kn-ladder 1e3 1e4 1e5 1e6 1e7] [--quick]
 
 Packings come from ``forcespace pack inputs/paper.toml --mu M -o PACK.h5``; pass mu = 0.1 first.
@@ -66,7 +66,7 @@ def _measure(p, soft, top, S_cache):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("packings", nargs="+")
-    ap.add_argument("--out", default="studies/out")
+    ap.add_argument("--out", default="studies/out/soft_vs_rigid")
     ap.add_argument("--kn-ladder", type=float, nargs="+", default=[1e3, 1e4, 1e5, 1e6, 1e7])
     ap.add_argument("--quick", action="store_true", help="pymunk at one setting only")
     args = ap.parse_args(argv)
@@ -89,7 +89,7 @@ def main(argv=None):
         plan = [("liggghts", K, 2 / 7) for K in args.kn_ladder]
         mid = args.kn_ladder[len(args.kn_ladder) // 2]
         plan.append(("liggghts", mid, 1.0))
-        pm = [(30, 0.01)] if args.quick else [(10, 0.01), (30, 0.01), (100, 0.01), (30, 0.003)]
+        pm = [(30, 0.01)] if args.quick else [(10, 0.01), (30, 0.01), (100, 0.01), (30, 0.003), (100, 0.003)]
         plan += [("pymunk", it, dt) for it, dt in pm]
         for code, a1, a2 in plan:
             tag = (f"lig_K{a1:g}_kt{a2:.3f}" if code == "liggghts" else f"pym_it{a1}_dt{a2:g}")
