@@ -50,7 +50,7 @@ import numpy as np
 from forcespace.errors import ForcespaceError, InputError
 from forcespace.packing import BOTTOM, TOP, Packing
 
-from .problem import SoftProblem
+from .problem import SoftProblem, check_options
 
 DECK_VERSION = 1
 
@@ -92,9 +92,7 @@ class LiggghtsOptions:
                   ("ramp_steps", self.ramp_steps >= 1, ">= 1"),
                   ("check_every", self.check_every >= 1, ">= 1"),
                   ("max_steps", self.max_steps >= self.ramp_steps, ">= ramp_steps")]
-        for name, ok, allowed in checks:
-            if not (ok and np.isfinite(getattr(self, name))):
-                raise InputError(source, name, f"must be {allowed}", got=getattr(self, name))
+        check_options(self, checks, source)
 
 
 def _fmt(v: float) -> str:

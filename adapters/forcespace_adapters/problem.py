@@ -35,6 +35,14 @@ from forcespace.errors import InputError
 from forcespace.packing import LEFT, RIGHT, TOP, Packing
 
 
+def check_options(options, checks, source="options") -> None:
+    """Raise InputError for the first failing ``(field, ok, allowed)`` check or non-finite value."""
+    for name, ok, allowed in checks:
+        value = getattr(options, name)
+        if not (ok and np.isfinite(value)):
+            raise InputError(source, name, f"must be {allowed}", got=value)
+
+
 @dataclass
 class SoftProblem:
     """Disks to simulate, their fixed loads and the remaining walls.

@@ -33,7 +33,7 @@ import pymunk
 from forcespace.errors import InputError
 from forcespace.packing import BOTTOM, TOP, Packing
 
-from .problem import SoftProblem
+from .problem import SoftProblem, check_options
 
 REAL, TWIN, FLOOR, PLATE = 0b0001, 0b0010, 0b0100, 0b1000
 DISK_TYPE, FLOOR_TYPE, PLATE_TYPE = 1, 2, 3
@@ -72,9 +72,7 @@ class PymunkOptions:
                   ("check_every", self.check_every >= 1, ">= 1"),
                   ("max_steps", self.max_steps >= 1, ">= 1"),
                   ("twin_margin", self.twin_margin >= 0, ">= 0")]
-        for name, ok, allowed in checks:
-            if not ok:
-                raise InputError(source, name, f"must be {allowed}", got=getattr(self, name))
+        check_options(self, checks, source)
 
 
 class PymunkScene:
