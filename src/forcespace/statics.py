@@ -24,6 +24,10 @@ Full problem: interior disks are all non-rattlers; contacts with BOTTOM (and
 LEFT/RIGHT, when present) are unknowns (supports, their mu is ``plate_mu``);
 contacts with TOP are fixed loads (its plate force is prescribed).
 
+Plate problem: as the full problem, but the TOP contacts are unknowns too and
+one extra row holds the plate's vertical balance (sum of their fn = top_force):
+S of the packing protocol itself, with a load-controlled plate.
+
 Rattler convention: ``Packing.rattlers()`` (fewer than 3 (mu=0) or 2 (mu>0)
 force-bearing contacts, iterated) decides. A rattler is never interior: its
 3 rows are absent and every contact touching it is dropped entirely (neither
