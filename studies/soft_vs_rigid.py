@@ -10,6 +10,8 @@ Distances are to the plate S (TOP contacts unknown + plate balance row).
 Per packing: a LIGGGHTS stiffness ladder (kn = K * <Fn>/R; top plate a frictionless
 load-controlled plate via the servo mesh module), kt/kn = 2/7 and 1 at the middle K;
 pymunk (load-controlled plate) at several iteration counts and time steps.
+Where in S each soft network lands: distance of its projection onto S from the
+centre of S and from the jammed contact-dynamics state; kt/kn = 2/7 vs 1.
 Each run is stored as ``OUT/runs/<packing>__<run>.json`` and skipped when
 present (checkpoint/resume). Outputs: ``OUT/table.csv``, ``OUT/distance_vs_kn.png/.pdf``
 and the fitted exponent of relative distance vs K (log-log least squares).
@@ -63,6 +65,30 @@ def _measure(p, soft, top, S_cache):
     return c
 
 
+def _landing(p, soft, S, centre):
+    """Where in S the soft network lands: distances of its projection onto S from the
+    centre of S (Chebyshev centre) and from the jammed contact-dynamics state, and of
+    the jammed state from the centre -- all rms per contact in units of <Fn>."""
+    from forcespace.polytope import distance_to_S
+    from forcespace_adapters.distance import soft_vector
+    prob, x, _ = soft_vector(p, soft, S)
+    y = distance_to_S(prob, x).nearest
+    scale = prob.force_scale * np.sqrt(prob.n_contacts)
+    return {"landing_from_centre": float(np.linalg.norm(y - centre) / scale),
+            "landing_from_jammed": float(np.linalg.norm(y - prob.x_jammed) / scale),
+            "jammed_from_centre": float(np.linalg.norm(prob.x_jammed - centre) / scale)}
+
+
+def _soft_again(p, code, a1, a2, work, tag):
+    """The soft network of a finished run: LIGGGHTS read back from its deck folder,
+    pymunk (deterministic, < 1 s) run again. None if the deck is gone."""
+    if code == "pymunk":
+        return _run_pymunk(p, a1, a2)[0]
+    from forcespace_adapters import liggghts as L
+    d = work / tag
+    return L.read_result(d, p)[0] if d.is_dir() else None
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("packings", nargs="+")
@@ -83,6 +109,9 @@ def main(argv=None):
         S_cache = {}
         from forcespace_adapters.distance import make_problem
         S_cache["plate"] = make_problem(p, "plate")
+        from forcespace.polytope import analyze
+        centre = analyze(S_cache["plate"], ranges=False, centre=True).centre
+        softs = {}
         rigid_viol = S_cache["plate"].violation(S_cache["plate"].forces_from_packing(p.fn, p.ft))
         print(f"{name}: rigid packing violates the plate S by {rigid_viol:.2e} <Fn>", file=sys.stderr)
         summary.setdefault(name, {})["rigid_violation_plate_S"] = rigid_viol
@@ -113,13 +142,28 @@ def main(argv=None):
                 tmp = f.with_suffix(".tmp")
                 tmp.write_text(json.dumps(rec, indent=1, default=float))
                 tmp.replace(f)
+            if "landing_from_centre" not in rec and "error" not in rec:
+                soft = _soft_again(p, code, a1, a2, work, tag)
+                if soft is not None:
+                    rec.update(_landing(p, soft, S_cache["plate"], centre))
+                    softs[tag] = soft
+                    tmp = f.with_suffix(".tmp")
+                    tmp.write_text(json.dumps(rec, indent=1, default=float))
+                    tmp.replace(f)
             print(f"  {tag}: rel. distance {rec.get('relative_distance')}, max overlap "
                   f"{rec.get('max_overlap')}, wall {rec.get('wall_time_s')}", file=sys.stderr)
             rows.append(rec)
+        pair = [f"lig_K{mid:g}_kt{kt:.3f}" for kt in (2 / 7, 1.0)]
+        if all(t in softs for t in pair):
+            from forcespace_adapters.distance import distance_between
+            summary[name]["kt_2/7_vs_1_at_K"] = mid
+            summary[name]["kt_2/7_vs_1_distance"] = distance_between(
+                p, softs[pair[0]], softs[pair[1]], S_cache["plate"])
     keys = ["packing", "mu", "code", "tag", "K", "kt_ratio", "iterations", "dt", "top",
             "converged", "steps", "wall_time_s", "relative_distance", "max_violation_rel",
             "max_overlap", "unmatched_contacts", "max_unmatched_force_rel", "lost_contacts",
-            "max_lost_rigid_force_rel", "error"]
+            "max_lost_rigid_force_rel", "landing_from_centre", "landing_from_jammed",
+            "jammed_from_centre", "error"]
     with open(out / ".table.csv.tmp", "w", newline="") as fh:
         w = csv.DictWriter(fh, keys, extrasaction="ignore")
         w.writeheader()
