@@ -8,20 +8,15 @@ from .errors import InputError
 
 
 def _scene_slice_height(packing):
-    """``[analysis] slice_height`` of the packing's scene text, or None."""
-    text = packing.scene_text or ""
-    if not text.strip():
+    """``[analysis] slice_height`` of the packing's scene, or None (absent, 0 or unreadable)."""
+    from .scene import parse_scene_text
+    if not (packing.scene_text or "").strip():
         return None
     try:
-        import tomllib
-    except ModuleNotFoundError:  # pragma: no cover
-        import tomli as tomllib
-    try:
-        scene = tomllib.loads(text)
-    except Exception:  # noqa: BLE001 - a broken scene text just means "no default"
+        h = parse_scene_text(packing.scene_text)["analysis.slice_height"]
+    except InputError:  # a scene text that does not validate just means "no default"
         return None
-    h = scene.get("analysis", {}).get("slice_height")
-    return float(h) if isinstance(h, (int, float)) else None
+    return h if h > 0 else None
 
 
 def load_problem(path, slice_height=None, full=False, gap_tol=float("inf")):

@@ -16,11 +16,6 @@ N_WALL_SLOTS = 4
 SLOT_BOTTOM, SLOT_TOP, SLOT_LEFT, SLOT_RIGHT = 0, 1, 2, 3
 
 
-def wall_code_to_slot(code: int) -> int:
-    """Packing wall code (-1..-4) -> wall slot offset (0..3)."""
-    return -code - 1
-
-
 @njit(cache=True)
 def detect_contacts(x, y, r, n, width, periodic, has_bottom, has_top, has_sides, margin):
     """All pairs (disk-disk and disk-wall) whose gap is below ``margin``.
