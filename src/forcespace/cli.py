@@ -3,19 +3,32 @@
 Built-in sub-commands live in ``forcespace.cli_*`` modules, each with a
 ``register(subparsers)`` function; plug-ins (the DEM adapters) add theirs
 through the ``forcespace.commands`` entry-point group, so forcespace never
-imports them. Every command returns an exit code; user errors
-(:class:`~forcespace.errors.ForcespaceError`) print one line, no traceback.
+imports them. Every command returns an exit code, one line on stderr and no traceback:
+
+* 0: success;
+* 2 (``EXIT_INPUT``): bad input (:class:`~forcespace.errors.InputError`, or any
+  other :class:`~forcespace.errors.ForcespaceError`): the line names the file,
+  the field and what is allowed;
+* 3 (``EXIT_NOT_CONVERGED``): a numerical method did not converge or produced a
+  non-finite value (:class:`~forcespace.errors.NumericalError`): the line says
+  what was reached and why it stopped;
+* 130: interrupted (Ctrl-C).
 """
 from __future__ import annotations
 
 import argparse
 import importlib
 import json
+import math
+import os
 import sys
 from importlib.metadata import entry_points
 
 from . import __version__
-from .errors import ForcespaceError
+from .errors import ForcespaceError, NumericalError
+
+EXIT_INPUT = 2
+EXIT_NOT_CONVERGED = 3
 
 BUILTIN = ("forcespace.cli_packing", "forcespace.cli_ensemble")
 
@@ -43,15 +56,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def jsonable(obj):
+    """``obj`` with numpy scalars/arrays turned into Python ones and every
+    non-finite float (NaN, +-inf) turned into None, so the result is strict JSON."""
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if hasattr(obj, "tolist"):          # numpy arrays and scalars
+        return jsonable(obj.tolist())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
 def print_json(obj) -> None:
-    """Print ``obj`` as JSON (numpy scalars converted)."""
-    def default(o):
-        if hasattr(o, "item"):
-            return o.item()
-        if hasattr(o, "tolist"):
-            return o.tolist()
-        raise TypeError(type(o))
-    print(json.dumps(obj, indent=2, default=default, allow_nan=True))
+    """Print ``obj`` as strict JSON (numpy converted; NaN/inf printed as null)."""
+    print(json.dumps(jsonable(obj), indent=2, allow_nan=False))
 
 
 def print_result(obj: dict, as_json: bool) -> None:
@@ -69,9 +90,17 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
+    except NumericalError as exc:
+        print(f"forcespace {args.command}: not converged: {exc}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
     except ForcespaceError as exc:
         print(f"forcespace {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_INPUT
+    except BrokenPipeError:
+        # the reader (e.g. `| head`) went away: stop quietly, as Unix tools do
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130

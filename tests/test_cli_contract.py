@@ -1,0 +1,46 @@
+"""The command line's contract: exit codes and strict JSON."""
+import json
+
+import numpy as np
+
+from forcespace import cli
+from forcespace.errors import InputError, NumericalError
+
+
+def _run_with(exc, capsys):
+    def boom(args):
+        raise exc
+    parser = cli.build_parser
+    try:
+        cli.build_parser = lambda: _FakeParser(boom)
+        return cli.main([])
+    finally:
+        cli.build_parser = parser
+
+
+class _FakeParser:
+    def __init__(self, func):
+        self.func = func
+
+    def parse_args(self, argv):
+        import argparse
+        return argparse.Namespace(func=self.func, command="fake")
+
+
+def test_exit_codes_distinguish_bad_input_from_non_convergence(capsys):
+    assert _run_with(InputError("a.toml", "disks.n", "must be >= 1", got=0), capsys) \
+        == cli.EXIT_INPUT == 2
+    err = capsys.readouterr().err
+    assert "a.toml: disks.n = 0: must be >= 1" in err and "Traceback" not in err
+    assert _run_with(NumericalError("relaxation stalled"), capsys) \
+        == cli.EXIT_NOT_CONVERGED == 3
+    assert "not converged: relaxation stalled" in capsys.readouterr().err
+
+
+def test_json_is_strict_nan_and_inf_become_null(capsys):
+    cli.print_json({"a": float("nan"), "b": np.array([1.0, np.inf]), "c": np.float64(2.5),
+                    "d": np.int64(3), "e": [np.nan, {"f": -np.inf}], "g": None})
+    out = capsys.readouterr().out
+    assert "NaN" not in out and "Infinity" not in out
+    assert json.loads(out) == {"a": None, "b": [1.0, None], "c": 2.5, "d": 3,
+                               "e": [None, {"f": None}], "g": None}
