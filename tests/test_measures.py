@@ -87,6 +87,6 @@ def test_cli_analyze_sample_ensemble(tmp_path, capsys):
     # a pyramid on a floor is a mechanism (its base can roll apart): the relax
     # walk finds a moving solution after a kick and must say so, not write junk
     assert main(["sample", str(pack), "--full", "--sampler", "relax", "-n", "5",
-                 "-o", str(tmp_path / "r.h5"), "--quiet"]) == 2
+                 "-o", str(tmp_path / "r.h5"), "--quiet"]) == 3   # EXIT_NOT_CONVERGED
     assert "stalled" in capsys.readouterr().err
     assert main(["analyze", str(tmp_path / "missing.h5")]) == 2

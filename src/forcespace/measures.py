@@ -108,7 +108,10 @@ def _rref_pivots(M, tol):
     return np.array(piv, dtype=np.int64), R[:row]
 
 
-def domains(problem, analysis, tol: float = 1e-9) -> list[Domain]:
+CIRCUIT_TOL = 1e-6   # entries of a fundamental circuit below this x its largest are round-off
+
+
+def domains(problem, analysis, tol: float = CIRCUIT_TOL) -> list[Domain]:
     """Independent domains of indeterminacy of S and their dimensions.
 
     The directions in which a force network can move inside S form the null
@@ -116,25 +119,43 @@ def domains(problem, analysis, tol: float = 1e-9) -> list[Domain]:
     columns and the implicit equalities: sliding and zero contacts). Its
     minimal supports are the circuits of a matroid on the columns; the
     matroid's connected components are read from the fundamental circuits
-    (rows of the RREF of the null basis): two columns are connected if they
-    share a fundamental circuit. Components are merged when they share a
-    contact (fn and ft of one contact); a domain's dimension is the number of
-    fundamental circuits it holds. Domains of dimension 1 are single circuits,
-    i.e. supports of a minimal self-stress: the paper's elementary clusters.
+    (rows of the RREF of the null basis): two contacts are connected if they
+    share a fundamental circuit. A domain's dimension is the number of
+    fundamental circuits it holds; domains of dimension 1 are single
+    circuits, i.e. supports of a minimal self-stress: the paper's elementary
+    clusters.
+
+    Only the varying contacts (``analysis.varying``: force can change by more
+    than VARY_TOL <Fn>) take part; basis entries of the others are round-off
+    couplings and are removed first. So the domains' contacts are exactly the
+    varying contacts, and the dimensions add up to the number of independent
+    directions among them (dim S unless S is thinner than VARY_TOL <Fn> in
+    some direction).
     """
     N = analysis.affine_basis
     if N is None or N.shape[1] == 0:
         return []
+    m = problem.n_contacts
     d = N.shape[1]
+    vary = varying_mask(analysis)
+    if not vary.any():
+        return []
+    Nv = N.reshape(m, 2, d).copy()
+    Nv[~vary] = 0.0
+    Nv = Nv.reshape(2 * m, d)
     # well-conditioned pivot columns (QR with column pivoting), then the
     # reduced form R = B^-1 N^T whose rows are the fundamental circuits
-    _, _, perm = sla.qr(N.T, mode="economic", pivoting=True)
-    piv = np.sort(perm[:d])
-    R = np.linalg.solve(N.T[:, piv], N.T)
-    m = problem.n_contacts
-    rowmax = np.maximum(np.abs(R).max(axis=1, keepdims=True), 1.0)
-    support = np.abs(R) > tol * rowmax
-    support[np.arange(d), piv] = True
+    _, rq, perm = sla.qr(Nv.T, mode="economic", pivoting=True)
+    diag = np.abs(np.diag(rq))
+    rank = int((diag > 1e-9 * max(diag[0], 1e-300)).sum())
+    piv = np.sort(perm[:rank])
+    R = sla.lstsq(Nv.T[:, piv], Nv.T)[0]                   # (rank, 2m)
+    Rc = np.sqrt(R[:, 0::2] ** 2 + R[:, 1::2] ** 2)        # per contact (rank, m)
+    support = Rc > tol * Rc.max(axis=1, keepdims=True)
+    support[:, ~vary] = False
+    support[np.arange(rank), piv // 2] = True
+    lonely = np.flatnonzero(vary & ~support.any(axis=0))  # every varying contact in a circuit
+    support[np.argmax(Rc[:, lonely], axis=0), lonely] = True
     # union-find over contacts
     parent = np.arange(m)
 
@@ -145,8 +166,8 @@ def domains(problem, analysis, tol: float = 1e-9) -> list[Domain]:
         return i
 
     row_contacts = []
-    for r in range(d):
-        cs = np.unique(np.flatnonzero(support[r]) // 2)
+    for r in range(rank):
+        cs = np.flatnonzero(support[r])
         row_contacts.append(cs)
         for c in cs[1:]:
             ra, rb = find(cs[0]), find(c)
@@ -169,14 +190,17 @@ def domains(problem, analysis, tol: float = 1e-9) -> list[Domain]:
     return out
 
 
-def varying_contacts(analysis, tol: float = 1e-9) -> np.ndarray:
-    """Problem contact indices whose force can change within S."""
-    N = analysis.affine_basis
-    if N is None or N.shape[1] == 0:
-        return np.zeros(0, dtype=np.int64)
-    row = np.linalg.norm(N, axis=1)
-    per = np.sqrt(row[0::2] ** 2 + row[1::2] ** 2)
-    return np.flatnonzero(per > tol)
+def varying_mask(analysis) -> np.ndarray:
+    """Mask (m,) of contacts whose force can change within S (``analysis.varying``)."""
+    if analysis.varying is not None:
+        return np.asarray(analysis.varying, bool)
+    return np.zeros(analysis.n_contacts, dtype=bool)
+
+
+def varying_contacts(analysis) -> np.ndarray:
+    """Problem contact indices whose force can change within S by more than
+    VARY_TOL <Fn> (see :func:`forcespace.polytope.analyze`)."""
+    return np.flatnonzero(varying_mask(analysis))
 
 
 def difference_field(packing, problem, x1, x2) -> dict:
@@ -217,6 +241,9 @@ def summary(problem, analysis, samples=None, packing=None) -> dict:
            "n_domains": len(doms), "domain_dims": [g.dim for g in doms],
            "n_elementary_clusters": int(sum(g.elementary for g in doms)),
            "n_varying_contacts": int(varying_contacts(analysis).size) if analysis.feasible else 0}
+    # directions of S along which no contact force changes by more than VARY_TOL <Fn>
+    out["n_thin_directions"] = (int(analysis.dim_S) - sum(g.dim for g in doms)
+                                if analysis.dim_S is not None else None)
     if packing is not None:
         out["z"] = coordination(packing)
     if samples is not None and len(samples):

@@ -13,6 +13,7 @@ normal force over the unknown contacts): an inequality is "tight everywhere"
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,6 +25,7 @@ from .errors import InputError, NumericalError
 from .statics import StaticsProblem
 
 TOL = 1e-9
+VARY_TOL = 1e-6   # a contact varies in S if its fn or ft can change by more than this x <Fn>
 
 
 # ----------------------------------------------------------------------------
@@ -62,14 +64,23 @@ def _rank(M, tol_rel=1e-10) -> int:
     return int((s > tol_rel * max(s[0], 1e-300) * max(M.shape)).sum()) if s.size else 0
 
 
-def null_basis(M, tol_rel=1e-10) -> np.ndarray:
-    """Orthonormal basis (ncol, d) of the null space of M (dense SVD)."""
+def null_basis(M, tol_rel=1e-10, return_noise: bool = False):
+    """Orthonormal basis N (ncol, d) of the null space of M (dense SVD).
+
+    With ``return_noise``: also the round-off level of N's entries, eps times
+    the condition number of M on its row space (s_max / s_rank); entries of N
+    below a few hundred times that are indistinguishable from zero.
+    """
     M = M.toarray() if sp.issparse(M) else np.asarray(M)
+    eps = np.finfo(float).eps
     if M.shape[0] == 0:
-        return np.eye(M.shape[1])
-    u, s, vt = np.linalg.svd(M, full_matrices=True)
-    rank = int((s > tol_rel * max(s[0], 1e-300) * max(M.shape)).sum()) if s.size else 0
-    return vt[rank:].T.copy()
+        N, noise = np.eye(M.shape[1]), eps
+    else:
+        u, s, vt = np.linalg.svd(M, full_matrices=True)
+        rank = int((s > tol_rel * max(s[0], 1e-300) * max(M.shape)).sum()) if s.size else 0
+        N = vt[rank:].T.copy()
+        noise = eps * s[0] / s[rank - 1] if rank else eps
+    return (N, float(noise)) if return_noise else N
 
 
 # ----------------------------------------------------------------------------
@@ -86,6 +97,9 @@ class PolytopeAnalysis:
     centre: Chebyshev centre of S inside its affine hull (2m,) [F0], with radius.
     affine_point, affine_basis: S lies in {affine_point + affine_basis @ y},
     affine_basis (2m, dim_S) orthonormal.
+    varying: (m,) contacts whose force can change by more than VARY_TOL <Fn>
+    within S (decided on forces, by bounds from the ball and the diameter of S
+    and by LP where they do not decide; see :func:`_varying`).
     """
 
     feasible: bool
@@ -113,6 +127,7 @@ class PolytopeAnalysis:
     affine_basis: np.ndarray | None = None
     implicit_rows: np.ndarray | None = None   # indices into problem.inequalities() rows
     force_scale: float = 1.0
+    varying: np.ndarray | None = None         # (m,) bool: force can change by > VARY_TOL <Fn>
 
     def summary(self) -> dict:
         d = {"feasible": self.feasible, "bounded": self.bounded,
@@ -153,7 +168,7 @@ class DistanceResult:
 # ----------------------------------------------------------------------------
 # Analysis
 # ----------------------------------------------------------------------------
-def check_feasible(problem: StaticsProblem):
+def _check_feasible(problem: StaticsProblem):
     """(feasible, x or None, diagnosis or None).
 
     When infeasible, an L1 relaxation of the equilibrium rows (minimum total
@@ -190,7 +205,7 @@ def check_feasible(problem: StaticsProblem):
                                    "listed disks need the smallest extra loads"}
 
 
-def check_bounded(problem: StaticsProblem):
+def _check_bounded(problem: StaticsProblem):
     """(bounded, max sum fn or inf, recession direction or None).
 
     S is bounded iff its recession cone {A d = 0, G d <= 0} is {0}; since the
@@ -215,7 +230,7 @@ def check_bounded(problem: StaticsProblem):
     return True, float(-r2.fun), None
 
 
-def implicit_equalities(problem: StaticsProblem, tol: float = TOL):
+def _implicit_equalities(problem: StaticsProblem, tol: float = TOL):
     """Indices of inequality rows of ``problem.inequalities()`` tight on all of S.
 
     Iterative slack LP (Fukuda's FAQ): maximise sum of slacks s_j in
@@ -247,7 +262,7 @@ def implicit_equalities(problem: StaticsProblem, tol: float = TOL):
     return np.flatnonzero(undecided)
 
 
-def analyze(problem: StaticsProblem, ranges: bool = True, centre: bool = True,
+def _analyze(problem: StaticsProblem, ranges: bool = True, centre: bool = True,
             tol: float = TOL) -> PolytopeAnalysis:
     """Feasibility, boundedness, implicit equalities, dimensions, ranges, centre of S."""
     m = problem.n_contacts
@@ -265,16 +280,16 @@ def analyze(problem: StaticsProblem, ranges: bool = True, centre: bool = True,
         force_scale=problem.force_scale)
     if m == 0:
         raise InputError(problem.source or "problem", "contacts", "no unknown contact in the problem")
-    feas, x0, diag = check_feasible(problem)
+    feas, x0, diag = _check_feasible(problem)
     if not feas:
         out.infeasibility = diag
         return out
     out.feasible = True
-    bounded, msum, rdir = check_bounded(problem)
+    bounded, msum, rdir = _check_bounded(problem)
     out.bounded, out.max_sum_fn, out.recession_direction = bounded, msum, rdir
 
     G, owner, kind = problem.inequalities()
-    imp = implicit_equalities(problem, tol)
+    imp = _implicit_equalities(problem, tol)
     out.implicit_rows = imp
     Eq, rhs = _eq_system(problem, G[imp])
     # one point of S and the affine hull
@@ -300,38 +315,83 @@ def analyze(problem: StaticsProblem, ranges: bool = True, centre: bool = True,
     out.n_sliding, out.n_zero = len(sliding), len(zero)
 
     if bounded and ranges:
-        out.fn_range, out.ft_range = column_ranges(problem, N, xa)
+        out.fn_range, out.ft_range = _column_ranges(problem, N, xa)
     if bounded and centre:
-        out.centre, out.centre_radius = chebyshev_centre(problem, N, imp)
+        out.centre, out.centre_radius = _chebyshev_centre(problem, N, imp)
+    out.varying = _varying(problem, N, msum, out.centre_radius or 0.0, out)
     return out
 
 
-def column_ranges(problem: StaticsProblem, N=None, xa=None):
+def _varying(problem: StaticsProblem, N, max_sum_fn, radius, an=None) -> np.ndarray:
+    """Mask (m,) of contacts whose force can change by more than VARY_TOL <Fn> within S
+    (problem at <Fn> = 1).
+
+    A contact's 2 x d block N_j of the hull basis bounds its force range: S
+    holds a ball of radius ``radius`` in its hull, so the range is at least
+    sqrt(2) radius ||N_j||; the diameter of S is at most 2 sqrt(1 + mu^2)
+    max_sum_fn, so the range is at most that times ||N_j||. Contacts between
+    the bounds are decided by LP (min and max of fn and ft). Entries of N_j
+    at the 1e-9 level (couplings of the data's round-off) never make a
+    contact vary: the decision is about forces, not about basis entries.
+    """
+    m = problem.n_contacts
+    d = N.shape[1]
+    if d == 0:
+        return np.zeros(m, dtype=bool)
+    blocks = N.reshape(m, 2, d)
+    smax = np.linalg.norm(blocks, ord=2, axis=(1, 2))
+    diam = 2.0 * np.sqrt(1.0 + float(problem.mu.max(initial=0.0)) ** 2) * max_sum_fn
+    varying = np.sqrt(2.0) * radius * smax > VARY_TOL
+    undecided = np.flatnonzero(~varying & (smax * diam > VARY_TOL))
+    if undecided.size:
+        rng_fn, rng_ft = (an.fn_range, an.ft_range) if an is not None and an.fn_range is not None \
+            else (None, None)
+        if rng_fn is None:
+            cols = np.concatenate([2 * undecided, 2 * undecided + 1])
+            rng = _column_ranges(problem, columns=cols)
+            rng_fn, rng_ft = rng[0::2], rng[1::2]
+        width = np.maximum(np.ptp(rng_fn[undecided], axis=1), np.ptp(rng_ft[undecided], axis=1))
+        varying[undecided] = ~(width <= VARY_TOL)   # unbounded (inf) or NaN-free wide: varies
+    return varying
+
+
+def _column_ranges(problem: StaticsProblem, N=None, xa=None, columns=None):
     """Min and max of every column over S: (fn_range, ft_range), each (m, 2).
 
     Columns that do not move within the affine hull (zero rows of N) are
-    constant and are not solved for.
+    constant and are not solved for. With ``columns``: only those columns are
+    solved, and the (2m, 2) table is returned (other rows NaN); an unbounded
+    side is +-inf.
     """
     G, _, _ = problem.inequalities()
     lo, hi = problem.bounds()
     bnds = _bounds_list(lo, hi)
     m2 = problem.n_columns
-    rng = np.empty((m2, 2))
+    rng = np.full((m2, 2), np.nan)
     moving = np.ones(m2, dtype=bool) if N is None else np.linalg.norm(N, axis=1) > 1e-10
     if xa is not None:
         rng[~moving] = xa[~moving, None]
-    for col in np.flatnonzero(moving):
+    todo = np.flatnonzero(moving) if columns is None else np.asarray(columns, dtype=np.int64)
+    for col in todo:
+        if lo[col] == hi[col]:           # fixed column (ft of a frictionless contact)
+            rng[col] = lo[col]
+            continue
         for side, sgn in ((0, 1.0), (1, -1.0)):
             c = np.zeros(m2)
             c[col] = sgn
             res = _lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, bnds)
+            if res.status == 3:          # unbounded in this direction
+                rng[col, side] = -sgn * np.inf
+                continue
             if res.status != 0:
                 raise NumericalError(f"range LP for column {col} failed: {res.message}")
             rng[col, side] = res.x[col]
+    if columns is not None:
+        return rng
     return rng[0::2].copy(), rng[1::2].copy()
 
 
-def chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
+def _chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
     """Centre of the largest ball inside S within its affine hull: (x (2m,), radius [F0]).
 
     Rows that are implicit equalities are kept as equalities; for the others
@@ -339,7 +399,7 @@ def chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
     """
     G, _, _ = problem.inequalities()
     if implicit_rows is None:
-        implicit_rows = implicit_equalities(problem)
+        implicit_rows = _implicit_equalities(problem)
     Eq, rhs = _eq_system(problem, G[implicit_rows])
     if N is None:
         N = null_basis(Eq)
@@ -499,21 +559,9 @@ def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 60, active=None):
     return best
 
 
-def distance_to_S(problem: StaticsProblem, x, analysis: PolytopeAnalysis | None = None
-                  ) -> DistanceResult:
-    """Exact Euclidean distance from ``x`` (2m,) to S (see :class:`DistanceResult`).
-
-    Method: least-distance programming in the null space of the equalities
-    (Lawson-Hanson via scipy's NNLS, a finite active-set method; HiGHS' QP
-    solver cycled on the degenerate Coulomb apexes and was dropped), then an
-    exact active-set polish whose KKT conditions are verified (feasibility to
-    round-off, multipliers >= 0, stationarity residual <= 1e-9). Raises NumericalError if the verification fails, InputError
-    for a wrong-shaped or non-finite x, and refuses an infeasible S.
-    """
-    x = np.asarray(x, float)
-    if x.shape != (problem.n_columns,) or not np.all(np.isfinite(x)):
-        raise InputError("distance_to_S", "x", f"must be a finite vector of shape "
-                         f"({problem.n_columns},)", got=getattr(x, "shape", None))
+def _distance_to_S(problem: StaticsProblem, x, analysis: PolytopeAnalysis | None = None
+                   ) -> DistanceResult:
+    """:func:`distance_to_S` on a problem at <Fn> = 1."""
     if analysis is not None and not analysis.feasible:
         raise InputError("distance_to_S", "S", "is empty (infeasible); no distance")
     xq, active = _ldp_projection(problem, x)
@@ -531,3 +579,117 @@ def distance_to_S(problem: StaticsProblem, x, analysis: PolytopeAnalysis | None 
     rel = d / (problem.force_scale * np.sqrt(problem.n_contacts))
     return DistanceResult(absolute=d, relative=rel, nearest=xn, max_violation=viol,
                           kkt_residual=kkt, method=method)
+
+
+# ----------------------------------------------------------------------------
+# Public entry points: every LP runs on the problem in units of <Fn>
+# ----------------------------------------------------------------------------
+# HiGHS' tolerances are absolute (primal/dual feasibility 1e-7): with forces of
+# 1e-12 F0 every slack looks like zero, with 1e12 F0 nothing looks feasible.
+# S scales exactly with the loads, so each entry point solves the problem
+# scaled to <Fn> = 1 and scales its answers back to the caller's units.
+def _unit(problem: StaticsProblem):
+    """(problem scaled to force_scale 1, the scale s [F0])."""
+    s = float(problem.force_scale)
+    if not (np.isfinite(s) and s > 0):
+        raise InputError(problem.source or "problem", "force_scale",
+                         "must be a finite number > 0 (the mean normal force <Fn>)", got=s)
+    return (problem if s == 1.0 else problem.scaled(1.0 / s)), s
+
+
+def _scaled_diagnosis(diag, s):
+    if diag is None:
+        return None
+    diag = dict(diag)
+    diag["min_total_imbalance"] *= s
+    diag["worst_rows"] = [dict(w, imbalance=w["imbalance"] * s) for w in diag["worst_rows"]]
+    return diag
+
+
+def check_feasible(problem: StaticsProblem):
+    """(feasible, x (2m,) [F0] or None, diagnosis or None).
+
+    When infeasible, an L1 relaxation of the equilibrium rows (minimum total
+    imbalance) names the disks that cannot be balanced and by how much [F0].
+    """
+    P, s = _unit(problem)
+    feas, x, diag = _check_feasible(P)
+    return feas, (None if x is None else x * s), _scaled_diagnosis(diag, s)
+
+
+def check_bounded(problem: StaticsProblem):
+    """(bounded, max sum fn [F0] or inf, recession direction (2m,) or None).
+
+    S is bounded iff its recession cone {A d = 0, G d <= 0} is {0}; since the
+    Coulomb cones are pointed, it suffices to maximise sum(d_fn) <= 1 over the
+    cone: optimum 0 -> bounded, 1 -> unbounded with recession direction d.
+    """
+    P, s = _unit(problem)
+    bounded, msum, rdir = _check_bounded(P)
+    return bounded, msum * s, rdir
+
+
+def implicit_equalities(problem: StaticsProblem, tol: float = TOL):
+    """Indices of inequality rows of ``problem.inequalities()`` tight on all of S
+    (no point of S has slack above ``tol`` <Fn>)."""
+    return _implicit_equalities(_unit(problem)[0], tol)
+
+
+def analyze(problem: StaticsProblem, ranges: bool = True, centre: bool = True,
+            tol: float = TOL) -> PolytopeAnalysis:
+    """Feasibility, boundedness, implicit equalities, dimensions, ranges, centre of S.
+
+    Invariant under scaling all forces: computed at <Fn> = 1, reported in F0.
+    """
+    P, s = _unit(problem)
+    an = _analyze(P, ranges=ranges, centre=centre, tol=tol)
+    for name in ("fn_range", "ft_range", "centre", "affine_point"):
+        v = getattr(an, name)
+        if v is not None:
+            setattr(an, name, v * s)
+    if an.centre_radius is not None:
+        an.centre_radius *= s
+    if an.max_sum_fn is not None:
+        an.max_sum_fn *= s
+    an.infeasibility = _scaled_diagnosis(an.infeasibility, s)
+    an.force_scale = s
+    return an
+
+
+def column_ranges(problem: StaticsProblem, N=None, xa=None):
+    """Min and max of every column over S [F0]: (fn_range, ft_range), each (m, 2)."""
+    P, s = _unit(problem)
+    fn, ft = _column_ranges(P, N, None if xa is None else np.asarray(xa, float) / s)
+    return fn * s, ft * s
+
+
+def chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
+    """Centre of the largest ball inside S within its affine hull: (x (2m,), radius) [F0].
+
+    Rows that are implicit equalities are kept as equalities; for the others
+    g.x + r ||P g|| <= 0 with P the projector onto the affine hull's directions.
+    """
+    P, s = _unit(problem)
+    x, r = _chebyshev_centre(P, N, implicit_rows)
+    return x * s, r * s
+
+
+def distance_to_S(problem: StaticsProblem, x, analysis: PolytopeAnalysis | None = None
+                  ) -> DistanceResult:
+    """Exact Euclidean distance from ``x`` (2m,) [F0] to S (see :class:`DistanceResult`).
+
+    Method: least-distance programming in the null space of the equalities
+    (Lawson-Hanson via scipy's NNLS, a finite active-set method; HiGHS' QP
+    solver cycled on the degenerate Coulomb apexes and was dropped), then an
+    exact active-set polish whose KKT conditions are verified (feasibility to
+    round-off, multipliers >= 0, stationarity residual <= 1e-9). Raises
+    NumericalError if the verification fails, InputError for a wrong-shaped or
+    non-finite x, and refuses an infeasible S.
+    """
+    x = np.asarray(x, float)
+    if x.shape != (problem.n_columns,) or not np.all(np.isfinite(x)):
+        raise InputError("distance_to_S", "x", f"must be a finite vector of shape "
+                         f"({problem.n_columns},)", got=getattr(x, "shape", None))
+    P, s = _unit(problem)
+    r = _distance_to_S(P, x / s, analysis)
+    return dataclasses.replace(r, absolute=r.absolute * s, nearest=r.nearest * s)

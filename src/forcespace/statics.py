@@ -97,6 +97,23 @@ class StaticsProblem:
     def n_columns(self) -> int:
         return 2 * self.n_contacts
 
+    def scaled(self, factor: float) -> "StaticsProblem":
+        """The same problem with every force multiplied by ``factor`` (> 0).
+
+        A, mu and the geometry are unchanged; b, the loads, the jammed and
+        packing forces and ``force_scale`` scale. S scales exactly with it, so
+        analyses run on ``scaled(1 / force_scale)`` (forces of order 1, where
+        the LP solver's absolute tolerances mean what they say) and scale back.
+        """
+        f = float(factor)
+        meta = dict(self.meta)
+        for k in ("b_raw", "packing_fn", "packing_ft"):
+            if k in meta:
+                meta[k] = np.asarray(meta[k], float) * f
+        return dataclasses.replace(
+            self, b=self.b * f, x_jammed=self.x_jammed * f, force_scale=self.force_scale * f,
+            load_force=self.load_force * f, load_torque=self.load_torque * f, meta=meta)
+
     # ---- column maps --------------------------------------------------------
     def forces_from_packing(self, fn, ft) -> np.ndarray:
         """Packing-indexed forces (Nc,), (Nc,) -> problem vector x (2m,)."""
@@ -286,9 +303,13 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     # its loads only to the engine's tolerance, so b is replaced by its
     # least-squares projection onto range(A) and the removed part is recorded
     # (meta["load_inconsistency"], relative to the mean force).
+    # Only the columns that are really unknown count: ft of a frictionless
+    # contact is fixed at 0, and a load component only it could balance is an
+    # inconsistency, not something S may absorb.
     b_raw = bvec.copy()
-    if A.shape[1]:
-        Ad = A.toarray()
+    unknown_cols = np.flatnonzero(np.repeat(mu > 0.0, 2) | (np.arange(2 * m) % 2 == 0))
+    if unknown_cols.size:
+        Ad = A[:, unknown_cols].toarray()
         sol = np.linalg.lstsq(Ad, bvec, rcond=None)[0]
         bvec = Ad @ sol
     else:
