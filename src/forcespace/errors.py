@@ -20,3 +20,12 @@ class InputError(ForcespaceError):
 
 class NumericalError(ForcespaceError):
     """A computation produced a non-finite value or failed to converge where it must."""
+
+
+def require_int(source, field, value, minimum: int, meaning: str = ""):
+    """``value`` as an int if it is an integer >= ``minimum``, else InputError."""
+    import numbers
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise InputError(source, field, f"must be an integer >= {minimum}"
+                         + (f" ({meaning})" if meaning else ""), got=value)
+    return int(value)

@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit
 
 from . import ensemble_file as ef
-from .errors import InputError, NumericalError
+from .errors import InputError, NumericalError, require_int
 from .polytope import analyze
 from .statics import StaticsProblem
 
@@ -278,6 +278,24 @@ def default_params(problem_dim: int, **kw) -> dict:
     return p
 
 
+def check_options(n, chains=None, thin=None, burn_in=None, direction=None,
+                  checkpoint_every=1, source="sample"):
+    """Refuse meaningless hit-and-run options before any work (InputError).
+
+    thin >= 1: with 0 steps between samples every sample would repeat the last.
+    """
+    require_int(source, "n", n, 1, "number of samples")
+    require_int(source, "checkpoint_every", checkpoint_every, 1)
+    for name, value, lo, meaning in (("chains", chains, 1, "independent chains"),
+                                     ("thin", thin, 1, "steps between samples"),
+                                     ("burn_in", burn_in, 0, "steps per chain before the first")):
+        if value is not None:
+            require_int(source, name, value, lo, meaning)
+    if direction not in (None, "hypersphere", "coordinate"):
+        raise InputError(source, "direction", "must be 'hypersphere' or 'coordinate'",
+                         got=direction)
+
+
 def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_name: str = "",
            scene_text: str = "", seed: int = 0, chains: int | None = None, thin: int | None = None,
            burn_in: int | None = None, direction: str | None = None,
@@ -287,10 +305,7 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
 
     Returns a summary dict (n_samples, wall time, max violation, diagnostics).
     """
-    if n < 1:
-        raise InputError("sample", "n", "must be >= 1", got=n)
-    if direction not in (None, "hypersphere", "coordinate"):
-        raise InputError("sample", "direction", "must be 'hypersphere' or 'coordinate'", got=direction)
+    check_options(n, chains, thin, burn_in, direction, checkpoint_every)
     t0 = time.perf_counter()
     xc, N, H0, s0, free, an = frame(problem, analysis)
     d = N.shape[1]

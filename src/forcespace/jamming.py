@@ -319,14 +319,14 @@ def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True):
         bar.set_postfix(residual=f"{residual:.2e}", refresh=False)
 
     try:
-        sweeps, residual, n_tang = relax(
+        res = relax(
             system, rn, rt, lambda rn, rt: packing_of(rn, rt).equilibrium_residual(),
             scene["jamming.static_tolerance"], scene["jamming.static_max_sweeps"], seed,
-            chunk=100, max_chunk=20000, on_chunk=report, raise_at_cap=False)
+            chunk=100, max_chunk=20000, on_chunk=report)
     finally:
         bar.close()
-    stats = {"static_sweeps": sweeps, "static_tangential_updates": n_tang,
-             "static_seconds": time.perf_counter() - t0, "static_residual": residual}
+    stats = {"static_sweeps": res.sweeps, "static_tangential_updates": res.tangential_updates,
+             "static_seconds": time.perf_counter() - t0, "static_residual": res.violation}
     return packing_of(rn, rt), stats
 
 

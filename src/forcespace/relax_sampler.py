@@ -13,7 +13,21 @@ as the initial velocities dt M^-1 F_ext.
 Relaxation stops when the sample's violation of S (equilibrium residual;
 Coulomb and fn >= 0 hold exactly after every Gauss-Seidel update) relative to
 <Fn> is <= ``tol`` (default 1e-9), checked on the forces themselves every
-``chunk`` sweeps, or fails with NumericalError after ``max_sweeps``.
+``chunk`` sweeps.
+
+Stalls. Contact dynamics with friction admits non-static solutions: after a
+kick the Gauss-Seidel iteration can settle on forces under which some bodies
+keep sliding (a fixed point of the sweep that is not in S), most often at
+large mu. Such a relaxation (no 1 % progress in ``stall_sweeps`` sweeps, or
+``max_sweeps`` reached) is finished by the exact Euclidean projection of its
+forces onto S (:func:`forcespace.polytope.distance_to_S`, KKT-verified): the
+admissible network nearest to where the walk got stuck. Every such sample is
+counted (``n_projected`` in the checkpoint attributes and the summary) and
+listed (``checkpoint/projected``: indices of the projected samples). Finished samples are written before any error propagates.
+
+For the plate problem (:func:`forcespace.statics.plate_problem`) the top
+plate is a body of the relaxation that moves vertically only, loaded by
+the plate force: the solver balances the same plate row as the LPs.
 The walk is not proven to sample S uniformly.
 """
 from __future__ import annotations
@@ -25,12 +39,14 @@ import time
 import numpy as np
 
 from . import ensemble_file as ef
-from .errors import InputError, NumericalError
-from .relaxation import FrozenContacts, relax
-from .polytope import check_bounded, check_feasible
+from .errors import InputError, NumericalError, require_int
+from .packing import TOP
+from .polytope import check_bounded, check_feasible, distance_to_S
+from .relaxation import FrozenContacts, RelaxResult, relax
 from .statics import StaticsProblem
 
 DEFAULT_TOL = 1e-9
+STALL_SWEEPS = 20_000   # no 1 % progress in this many sweeps: a stalled relaxation
 
 
 class Relaxer:
@@ -38,26 +54,43 @@ class Relaxer:
 
     def __init__(self, problem: StaticsProblem):
         p = problem
+        if p.n_contacts == 0:
+            raise InputError(p.source or "problem", "contacts",
+                             "no unknown contact in the problem: nothing to relax")
         n = p.n_interior
         nb = n + p.n_supports
         self.problem = p
         inv_m = np.zeros(nb)
         inv_m[:n] = 1.0 / p.mass
+        inv_my = inv_m.copy()
         inv_i = np.zeros(nb)
         inv_i[:n] = 1.0 / (0.5 * p.mass * p.radius ** 2)
         v_ext = (np.zeros(nb), np.zeros(nb), np.zeros(nb))
         v_ext[0][:n] = p.load_force[:, 0] / p.mass
         v_ext[1][:n] = p.load_force[:, 1] / p.mass
         v_ext[2][:n] = p.load_torque * inv_i[:n]
+        if p.kind == "full_plate" and TOP in p.meta.get("wall_codes", []):
+            # the load-controlled plate: vertical motion only, pressed down by the
+            # plate row's load (b[-1] = top_force); its mass only preconditions
+            q = n + p.meta["wall_codes"].index(TOP)
+            m_plate = float(p.mass.mean())
+            inv_my[q] = 1.0 / m_plate
+            v_ext[1][q] = -p.b[-1] / m_plate
         self.system = FrozenContacts(
             a=p.ka.astype(np.int64), b=p.kb.astype(np.int64), nx=p.nx.astype(float),
             ny=p.ny.astype(float), ra=p.ra.astype(float), rb=p.rb.astype(float),
-            mu=p.mu.astype(float), inv_mx=inv_m, inv_my=inv_m, inv_i=inv_i, v_ext=v_ext)
+            mu=p.mu.astype(float), inv_mx=inv_m, inv_my=inv_my, inv_i=inv_i, v_ext=v_ext)
         self.mu = self.system.mu
 
     def relax(self, x, tol=DEFAULT_TOL, chunk=200, max_sweeps=2_000_000, seed=0,
-              stall_sweeps=20_000):
-        """Relax forces x (2m,) to an admissible network; returns (x, sweeps, violation)."""
+              stall_sweeps=STALL_SWEEPS):
+        """Relax forces x (2m,) [F0] to an admissible network.
+
+        Returns (x (2m,), RelaxResult, projected): ``projected`` is True when
+        the relaxation stalled or hit ``max_sweeps`` and x is the exact
+        projection of its end state onto S (see the module docstring).
+        Raises NumericalError if even the projection cannot be verified.
+        """
         rn = np.ascontiguousarray(x[0::2], dtype=float).copy()
         rt = np.ascontiguousarray(x[1::2], dtype=float).copy()
         rt[self.mu == 0.0] = 0.0
@@ -68,11 +101,14 @@ class Relaxer:
             out[1::2] = rt
             return self.problem.violation(out)
 
-        sweeps, viol, _ = relax(self.system, rn, rt, violation, tol, max_sweeps, seed, chunk,
-                                stall_sweeps=stall_sweeps)
+        res = relax(self.system, rn, rt, violation, tol, max_sweeps, seed, chunk,
+                    stall_sweeps=stall_sweeps)
         out[0::2] = rn
         out[1::2] = rt
-        return out.copy(), sweeps, viol
+        if res.converged:
+            return out.copy(), res, False
+        nearest = distance_to_S(self.problem, out).nearest
+        return nearest, res, True
 
 
 def kick(x, mu, scale, rng):
@@ -82,6 +118,15 @@ def kick(x, mu, scale, rng):
     return x + k
 
 
+def check_options(n, tol, checkpoint_every=1, source="sample"):
+    """Refuse meaningless sampler options before any work (InputError)."""
+    require_int(source, "n", n, 1, "number of samples")
+    require_int(source, "checkpoint_every", checkpoint_every, 1)
+    if not (isinstance(tol, (int, float)) and np.isfinite(tol) and 0 < tol < 1):
+        raise InputError(source, "tol", "must be a finite number in (0, 1) (violation of S "
+                         "relative to <Fn>)", got=tol)
+
+
 def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_name: str = "",
            scene_text: str = "", seed: int = 0, tol: float = DEFAULT_TOL, chunk: int = 200,
            max_sweeps: int = 2_000_000, checkpoint_every: int = 10, progress: bool = False,
@@ -89,13 +134,12 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
     """Write ``n`` perturb-and-relax samples to ``out`` (resumes a matching file).
 
     ``start`` (2m,): first network (default: the jammed forces, relaxed to tol).
-    Returns a summary dict. Refuses an infeasible or unbounded S.
+    Returns a summary dict. Refuses an infeasible or unbounded S. Samples
+    finished before an error are in the file when the error propagates.
     """
-    if n < 1:
-        raise InputError("sample", "n", "must be >= 1", got=n)
-    if not (tol > 0):
-        raise InputError("sample", "tol", "must be > 0", got=tol)
+    check_options(n, tol, checkpoint_every)
     t0 = time.perf_counter()
+    relaxer = Relaxer(problem)
     feas, _, _ = check_feasible(problem)
     if not feas:
         raise InputError(problem.source or "problem", "S", "is empty (infeasible): nothing to sample")
@@ -105,58 +149,79 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
                          "is unbounded (a recession direction exists, e.g. a wedged contact); "
                          "refusing to sample")
     params = {"seed": int(seed), "tol": float(tol), "kick": "uniform +-<Fn> on fn and ft",
-              "kick_scale": problem.force_scale}
-    relaxer = Relaxer(problem)
+              "kick_scale": problem.force_scale, "stall": "exact projection onto S"}
     ens = ef.existing(out, problem, "relax", params)
     if ens is None:
         x0 = problem.x_jammed if start is None else np.asarray(start, float)
-        x, sw, v = relaxer.relax(x0, tol, chunk, max_sweeps, seed)
+        x, res, projected = relaxer.relax(x0, tol, chunk, max_sweeps, seed)
         rng = np.random.default_rng(seed)
         ef.create(out, problem, "relax", params, packing_file, scene_name, scene_text,
                   setup={"x_start": x},
                   setup_describe={"x_start": ("F0", "jammed network relaxed to tol (walk start)")},
-                  checkpoint={"x": x},
+                  checkpoint={"x": x, "projected": np.zeros(0, np.int64)},
                   checkpoint_attrs={"rng_state": json.dumps(rng.bit_generator.state),
-                                    "n_done": 0, "sweeps_total": int(sw)},
+                                    "n_done": 0, "sweeps_total": int(res.sweeps),
+                                    "n_projected": 0, "start_projected": int(projected)},
                   tolerance_description=f"every sample has max violation <= {tol} relative to "
                                         f"<Fn> (checked after relaxation)")
         ens = ef.read(out)
     x = ens.checkpoint["x"].copy()
     rng = np.random.default_rng()
-    rng.bit_generator.state = json.loads(ens.checkpoint_attrs["rng_state"])
+    try:
+        rng.bit_generator.state = json.loads(ens.checkpoint_attrs["rng_state"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(out, "checkpoint/rng_state", f"unreadable ({exc}); the checkpoint is "
+                         "corrupt: delete the file to restart") from None
     sweeps_total = int(ens.checkpoint_attrs.get("sweeps_total", 0))
+    projected_idx = [int(i) for i in ens.checkpoint.get("projected", [])]
     done = ens.n_samples
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=n, initial=min(done, n), desc="relax", unit="sample", file=sys.stderr)
     buf_x, buf_v = [], []
-    while done + len(buf_x) < n:
-        i = done + len(buf_x)
-        xk = kick(x, problem.mu, problem.force_scale, rng)
-        x, sw, v = relaxer.relax(xk, tol, chunk, max_sweeps, seed + 1 + i)
-        sweeps_total += sw
-        v_check = problem.violation(x)
-        if not v_check <= tol:
-            raise NumericalError(f"relax sample {i} violates S by {v_check:.3e} x <Fn>")
-        buf_x.append(x)
-        buf_v.append(v_check)
-        if bar is not None:
-            bar.update(1)
-            bar.set_postfix(sweeps=sw)
-        last = done + len(buf_x) >= n
-        timeout = max_seconds is not None and time.perf_counter() - t0 > max_seconds
-        if len(buf_x) >= checkpoint_every or last or timeout:
+
+    def flush():
+        nonlocal done, buf_x, buf_v
+        if buf_x:
             done = ef.append(out, np.array(buf_x), np.zeros(len(buf_x), np.int64), buf_v,
-                             {"x": x}, {"rng_state": json.dumps(rng.bit_generator.state),
-                                        "n_done": done + len(buf_x),
-                                        "sweeps_total": int(sweeps_total)})
-            buf_x, buf_v = [], []
-            if timeout:
-                break
-    if bar is not None:
-        bar.close()
+                             {"x": x, "projected": np.array(projected_idx, np.int64)},
+                             {"rng_state": json.dumps(rng.bit_generator.state),
+                              "n_done": done + len(buf_x), "sweeps_total": int(sweeps_total),
+                              "n_projected": len(projected_idx)})
+        buf_x, buf_v = [], []
+
+    try:
+        while done + len(buf_x) < n:
+            i = done + len(buf_x)
+            xk = kick(x, problem.mu, problem.force_scale, rng)
+            xn, res, projected = relaxer.relax(xk, tol, chunk, max_sweeps, seed + 1 + i)
+            v_check = problem.violation(xn)
+            if not v_check <= tol:
+                raise NumericalError(f"relax sample {i} violates S by {v_check:.3e} x <Fn> "
+                                     f"({res.message})")
+            x = xn
+            sweeps_total += res.sweeps
+            if projected:
+                projected_idx.append(i)
+            buf_x.append(x)
+            buf_v.append(v_check)
+            if bar is not None:
+                bar.update(1)
+                bar.set_postfix(sweeps=res.sweeps, projected=len(projected_idx), refresh=False)
+            timeout = max_seconds is not None and time.perf_counter() - t0 > max_seconds
+            if len(buf_x) >= checkpoint_every or timeout:
+                flush()
+                if timeout:
+                    break
+    finally:
+        flush()            # finished samples are never lost, whatever stops the walk
+        if bar is not None:
+            bar.close()
     ens = ef.read(out)
     return {"n_samples": ens.n_samples, "wall_time_s": time.perf_counter() - t0,
             "max_violation": float(ens.violations.max(initial=0.0)),
-            "sweeps_total": sweeps_total, "params": params}
+            "sweeps_total": sweeps_total, "n_projected": len(projected_idx),
+            "projected_convention": "samples whose relaxation stalled (non-static fixed "
+                                    "point) and were finished by the exact projection onto S",
+            "params": params}

@@ -47,18 +47,37 @@ class FrozenContacts:
         self.closed = np.zeros(self.a.shape[0])
 
 
+@dataclass(frozen=True)
+class RelaxResult:
+    """Outcome of :func:`relax` (in the spirit of scipy's ``OptimizeResult``).
+
+    sweeps: Gauss-Seidel sweeps done; violation: the caller's measure at the
+    end (e.g. equilibrium residual / <Fn>); tangential_updates: friction
+    updates done (0 without friction); converged: violation <= tol;
+    status: "converged", "stalled" (a non-static fixed point: the violation
+    stopped dropping, bodies keep moving, e.g. sliding) or "max_sweeps";
+    message: one line for reports.
+    """
+
+    sweeps: int
+    violation: float
+    tangential_updates: int
+    converged: bool
+    status: str
+    message: str
+
+
 def relax(system: FrozenContacts, rn, rt, violation, tol, max_sweeps, seed=0, chunk=200,
-          max_chunk=None, stall_sweeps=None, on_chunk=None, raise_at_cap=True):
+          max_chunk=None, stall_sweeps=None, on_chunk=None) -> RelaxResult:
     """Sweep until ``violation(rn, rt) <= tol``; ``rn, rt`` (Nc,) are updated in place.
 
     ``chunk`` sweeps run between checks; it doubles up to ``max_chunk`` if given.
-    ``stall_sweeps``: raise if the violation has not dropped by 1 % for that
-    many sweeps (a non-static fixed point: bodies keep sliding).
-    ``on_chunk(sweeps_done, violation)`` reports progress.
+    ``stall_sweeps``: stop (status "stalled") when the violation has not dropped
+    by 1 % for that many sweeps. ``on_chunk(sweeps_done, violation)`` reports
+    progress. Stops at ``max_sweeps`` (status "max_sweeps").
 
-    Returns (sweeps, violation, tangential_updates). Raises NumericalError when
-    the forces turn non-finite, the relaxation stalls or ``max_sweeps`` pass
-    (with ``raise_at_cap=False`` it returns the unconverged state instead).
+    Returns a :class:`RelaxResult`; the caller decides what non-convergence
+    means. Raises NumericalError only when the forces turn non-finite.
     """
     s = system
     sweeps = n_tang = 0
@@ -79,20 +98,20 @@ def relax(system: FrozenContacts, rn, rt, violation, tol, max_sweeps, seed=0, ch
         if not np.isfinite(viol):
             raise NumericalError("non-finite forces in the NLGS relaxation")
         if viol <= tol:
-            return sweeps, viol, n_tang
+            return RelaxResult(sweeps, viol, n_tang, True, "converged",
+                               f"violation {viol:.2e} <= {tol:.1e} in {sweeps} sweeps")
         if viol < 0.99 * best:
             best, since = viol, 0
         else:
             since += sw
         if stall_sweeps is not None and since >= stall_sweeps:
-            raise NumericalError(f"NLGS relaxation stalled at violation {viol:.2e} x <Fn> "
-                                 f"(no progress in {since} sweeps): it converged to a "
-                                 f"non-static solution of the contact problem (bodies keep "
-                                 f"moving, e.g. sliding)")
+            return RelaxResult(sweeps, viol, n_tang, False, "stalled",
+                               f"NLGS relaxation stalled at violation {viol:.2e} (no progress "
+                               f"in {since} sweeps): a non-static solution of the contact "
+                               f"problem (bodies keep moving, e.g. sliding)")
         if sweeps >= max_sweeps:
-            if not raise_at_cap:
-                return sweeps, viol, n_tang
-            raise NumericalError(f"NLGS relaxation did not reach violation {tol:.1e} x <Fn> "
-                                 f"in {sweeps} sweeps (reached {viol:.2e})")
+            return RelaxResult(sweeps, viol, n_tang, False, "max_sweeps",
+                               f"NLGS relaxation did not reach violation {tol:.1e} in "
+                               f"{sweeps} sweeps (reached {viol:.2e})")
         if max_chunk is not None:
             chunk = min(2 * chunk, max_chunk)
