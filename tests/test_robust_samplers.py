@@ -122,3 +122,17 @@ def test_relax_on_a_problem_without_unknown_contacts_is_refused(tmp_path):
     empty = replace(prob, contacts=prob.contacts[:0])
     with pytest.raises(InputError, match="no unknown contact"):
         rs.sample(empty, 5, tmp_path / "r.h5")
+
+
+def test_ensemble_of_a_point_like_S_reports_no_ratio_of_round_off(tmp_path):
+    from forcespace.cli_ensemble import ensemble_summary
+    _, prob = grooves(THETAS, 0.0)                  # frictionless grooves: dim S = 0
+    rs.sample(prob, 10, tmp_path / "r.h5", seed=1)
+    out = ensemble_summary(tmp_path / "r.h5")
+    assert out["eta"] < 1e-8                         # the solver floor
+    assert out["jammed_distance_over_mean"] is None  # was a ratio of round-off (e.g. 8382)
+    assert "numerically a point" in out["jammed_distance_over_mean_reason"]
+    _, prob = grooves(THETAS, MU)                    # dim S = 2: a real ratio
+    rs.sample(prob, 10, tmp_path / "r2.h5", seed=1)
+    out = ensemble_summary(tmp_path / "r2.h5")
+    assert 0 < out["jammed_distance_over_mean"] < 10

@@ -4,7 +4,11 @@ from __future__ import annotations
 import sys
 import time
 
+import numpy as np
+
 from .errors import InputError
+
+SPREAD_FLOOR = 1e-8   # rms spread of samples per contact, in <Fn>, below which S is a point
 
 
 def _scene_slice_height(packing):
@@ -86,6 +90,10 @@ def cmd_sample(args) -> int:
         res = har.sample(problem, args.n, args.output, chains=args.chains, thin=args.thin,
                          burn_in=args.burn_in, direction=args.direction, **common)
     res["output"] = str(args.output)
+    if res.get("n_projected"):
+        print(f"forcespace sample: warning: {res['n_projected']} of {res['n_samples']} relax "
+              f"samples stalled in Gauss-Seidel (non-static fixed point) and were finished by "
+              f"the exact projection onto S", file=sys.stderr)
     if args.json:
         print_json(res)
     else:
@@ -115,7 +123,14 @@ def ensemble_summary(path) -> dict:
         ell, l0, lbar = measures.distance_from_centre(ens.samples, ens.x_jammed)
         out["jammed_distance_from_centre"] = l0
         out["mean_sample_distance_from_centre"] = lbar
-        out["jammed_distance_over_mean"] = l0 / lbar if lbar > 0 else None
+        rms_spread = lbar / (ens.force_scale * np.sqrt(max(ens.contacts.size, 1)))
+        if rms_spread > SPREAD_FLOOR:
+            out["jammed_distance_over_mean"] = l0 / lbar
+        else:   # a ratio of two round-off numbers means nothing
+            out["jammed_distance_over_mean"] = None
+            out["jammed_distance_over_mean_reason"] = (
+                f"samples differ only at the solver's accuracy (rms spread "
+                f"{rms_spread:.1e} <Fn> <= {SPREAD_FLOOR:g}): S is numerically a point")
     else:
         out["eta"] = None
     if ens.sampler == "hit-and-run" and ens.n_samples >= 8:
