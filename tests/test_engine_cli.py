@@ -16,8 +16,8 @@ width = 20.0
 
 
 @pytest.mark.parametrize("edit, field, allowed", [
-    ("[disks]\nn = 12\nradius_min = -1.0\n", "disks.radius_min", "must be > 0"),
-    ("[physics]\nmu = -0.1\n", "physics.mu", "must be >= 0"),
+    ("[disks]\nn = 12\nradius_min = -1.0\n", "disks.radius_min", "must be in (0, 1e+06]"),
+    ("[physics]\nmu = -0.1\n", "physics.mu", "must be in [0, 1e6]"),
     ("[box]\nwidth = 5.0\n", "box.width", "minimum-image"),
     ("[disks]\nn = \"many\"\n", "disks.n", "must be an integer"),
     ("[physics]\nfriction = 0.3\n", "physics.friction", "unknown key; allowed keys here:"),

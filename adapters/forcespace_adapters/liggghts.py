@@ -207,7 +207,7 @@ variable perr equal abs(c_ftop+{_fmt(T)})
             f.write(f"0.0 {_fmt(W)} xlo xhi\n{_fmt(ylo - ys)} {_fmt(yhi - ys)} ylo yhi\n"
                     f"{_fmt(-zhalf)} {_fmt(zhalf)} zlo zhi\n\nAtoms\n\n")
             for i in ids:
-                f.write(f"{i + 1} 1 {_fmt(2 * p.r[i])} {_fmt(p.density)} "
+                f.write(f"{i + 1} 1 {_fmt(2 * p.r[i])} {_fmt(np.broadcast_to(p.density, p.r.shape)[i])} "
                         f"{_fmt(x[i])} {_fmt(p.y[i] - ys)} 0.0\n")
         for comp, name in ((0, "load_fx.txt"), (1, "load_fy.txt")):
             with open(tmp / name, "w") as f:

@@ -65,8 +65,8 @@ def cmd_analyze(args) -> int:
     out["n_rattlers_excluded"] = int(problem.rattlers.size)
     out["load_inconsistency"] = problem.meta["load_inconsistency"]
     out["jammed_violation"] = problem.violation(problem.x_jammed)
-    out["rattler_convention"] = ("Packing.rattlers(): < 3 (mu=0) or < 2 (mu>0) force-bearing "
-                                 "contacts, iterated; rattlers and all their contacts dropped")
+    out["rattler_convention"] = ("Packing.rattlers(): a disk with no force-bearing contact "
+                                 "(carries no load); rattlers and all their contacts dropped")
     if args.ranges and an.fn_range is not None:
         out["fn_range"] = an.fn_range
         out["ft_range"] = an.ft_range

@@ -33,16 +33,26 @@ def detect_contacts(x, y, r, n, width, periodic, has_bottom, has_top, has_sides,
         ymin = min(ymin, y[i])
         ymax = max(ymax, y[i])
     cell = 2.0 * rmax + margin
-    ncx = max(1, int(width / cell))
+    # at most ~4n + 16 cells: a blown-up configuration (disks far apart) gets
+    # larger cells, never an allocation it cannot afford (cells only need to
+    # be at least ``cell`` wide for the +-1 neighbour search to be complete)
+    max_cells = 4 * n + 16
+    ncx = max(1, min(int(width / cell), max_cells))
     cx = width / ncx
-    ncy = max(1, int((ymax - ymin) / cell) + 1)
+    span = ymax - ymin
+    if np.isfinite(span):
+        ncy = max(1, min(int(span / cell) + 1, max_cells // ncx))
+        cy = max(cell, span / ncy * (1.0 + 1e-12))
+    else:            # non-finite positions: one row; the caller reports the blow-up
+        ncy = 1
+        cy = np.inf
     head = -np.ones(ncx * ncy, dtype=np.int64)
     nxt = -np.ones(n, dtype=np.int64)
     cix = np.empty(n, dtype=np.int64)
     ciy = np.empty(n, dtype=np.int64)
     for i in range(n):
         ix = min(max(int(x[i] / cx), 0), ncx - 1)
-        iy = min(max(int((y[i] - ymin) / cell), 0), ncy - 1)
+        iy = min(max(int((y[i] - ymin) / cy), 0), ncy - 1)
         cix[i] = ix
         ciy[i] = iy
         c = iy * ncx + ix

@@ -90,11 +90,31 @@ def loose_start(scene: Scene, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     return x, y, r, height
 
 
-def make_bodies(scene: Scene, x, y, r, height) -> Bodies:
-    """Kernel body arrays for disks and walls; only the scene's physics is switched on."""
+def force_unit(scene: Scene) -> float:
+    """The engine's internal force unit sigma [F0]: the top-plate load, else rho g R^2.
+
+    The kernels run with every force divided by sigma, so a scene whose loads
+    are all multiplied by k gives the same trajectory (positions bit for bit)
+    and forces exactly k times larger. Time is therefore measured in
+    sqrt(rho R^3 / sigma): ``solver.dt`` is in that unit (for the default
+    top_force = 1 F0 the two agree).
+    """
+    if scene["plates.top"] == "load":
+        return float(scene["plates.top_force"])
+    return float(scene["disks.density"] * scene["physics.gravity"])
+
+
+def make_bodies(scene: Scene, x, y, r, height, density=None) -> Bodies:
+    """Kernel body arrays for disks and walls; only the scene's physics is switched on.
+
+    Forces are in the internal unit :func:`force_unit`. ``density``: per-disk
+    densities (n,) (default the scene's uniform density).
+    """
     n = r.shape[0]
     nb = n + N_WALL_SLOTS
-    m = scene["disks.density"] * np.pi * r**2
+    sigma = force_unit(scene)
+    rho = scene["disks.density"] if density is None else np.asarray(density, float)
+    m = rho * np.pi * r**2
     inv_mx = np.zeros(nb)
     inv_my = np.zeros(nb)
     inv_i = np.zeros(nb)
@@ -103,7 +123,7 @@ def make_bodies(scene: Scene, x, y, r, height) -> Bodies:
     if scene.rotation:
         inv_i[:n] = 1.0 / (0.5 * m * r**2)
     if scene["physics.gravity"] > 0:
-        fy[:n] = -m * scene["physics.gravity"]
+        fy[:n] = -m * (scene["physics.gravity"] / sigma)
     X = np.zeros(nb)
     Y = np.zeros(nb)
     X[:n], Y[:n] = x, y
@@ -111,7 +131,7 @@ def make_bodies(scene: Scene, x, y, r, height) -> Bodies:
     if scene["plates.top"] == "load":
         Y[n + SLOT_TOP] = height
         inv_my[n + SLOT_TOP] = 1.0 / scene["plates.top_mass"]
-        fy[n + SLOT_TOP] = -scene["plates.top_force"]
+        fy[n + SLOT_TOP] = -scene["plates.top_force"] / sigma
     return Bodies(X, Y, np.zeros(nb), np.zeros(nb), np.zeros(nb), np.zeros(nb), r.copy(),
                   inv_mx, inv_my, inv_i, fy)
 
@@ -185,6 +205,7 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
                    disable=not show_progress)
     bar.update(run["steps"])
     window_time = window * scene["solver.dt"]
+    v_mean = float("nan")
     try:
         while run["steps"] < scene["jamming.max_steps"]:
             start = (bodies.x.copy(), bodies.y.copy(), bodies.th.copy())
@@ -201,16 +222,14 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
             totals[1] = max(totals[1], st[1])
             totals[3:5] += st[3:5]
             totals[7] += st[7]
-            if not (np.isfinite(bodies.x).all() and np.isfinite(bodies.y).all()):
-                raise NumericalError(f"non-finite positions after {run['steps']} steps; "
-                                     "reduce solver.dt")
+            _check_state(scene, bodies, run["steps"])
             v_mean = _window_displacement(scene, bodies, start, run["keys"], run["rn"]) \
                 / window_time
             bar.update(window)
             bar.set_postfix(v_mean=f"{v_mean:.1e}", v_max=f"{st[5]:.1e}",
                             sweeps=f"{st[0] / window:.0f}", refresh=False)
             run["log"].append((run["steps"], v_mean, st[5], st[0] / window, st[2]))
-            if v_mean <= v_tol:
+            if v_mean <= v_tol and _load_carried(scene, bodies, run["keys"], run["rn"]):
                 break
             if checkpoint and time.perf_counter() - last_save > CHECKPOINT_SECONDS:
                 save_checkpoint(checkpoint, scene, bodies, run)
@@ -218,9 +237,14 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
         else:
             if checkpoint:
                 save_checkpoint(checkpoint, scene, bodies, run)
+            capped = int(totals[7])
             raise NumericalError(f"not jammed after jamming.max_steps = {run['steps']} steps "
                                  f"(last mean speed over a window {v_mean:.3g}, "
-                                 f"tolerance {v_tol:.3g}); raise jamming.max_steps or the tolerances"
+                                 f"tolerance {v_tol:.3g}; {capped} steps hit "
+                                 f"solver.max_sweeps = {scene['solver.max_sweeps']}); raise "
+                                 f"jamming.max_steps"
+                                 + (", solver.max_sweeps" if capped else "")
+                                 + " or the tolerances"
                                  + (f"; the run resumes from {checkpoint}" if checkpoint else ""))
     finally:
         bar.close()
@@ -256,21 +280,51 @@ def _window_displacement(scene: Scene, bodies: Bodies, start, keys, rn) -> float
     periodic = scene["box.periodic_x"]
     if periodic:
         dx -= scene["box.width"] * np.round(dx / scene["box.width"])
+    plate = abs(bodies.y[n + SLOT_TOP] - y0[n + SLOT_TOP])
     if not loaded.any():
-        return 0.0
+        return float(plate)
     if periodic and scene["physics.plate_mu"] == 0.0:
         m = bodies.r[loaded] ** 2
         dx = dx - (m * dx[loaded]).sum() / m.sum()
     disp = np.hypot(dx, bodies.y[:n] - y0[:n]) + bodies.r * np.abs(bodies.th[:n] - th0[:n])
-    plate = abs(bodies.y[n + SLOT_TOP] - y0[n + SLOT_TOP])
     return float(max(disp[loaded].max(), plate))
 
 
+def _check_state(scene: Scene, bodies: Bodies, steps: int) -> None:
+    """NumericalError if the state is non-finite or disks left the box through a
+    plate (a time step far too large for the loads: the implicit scheme stays
+    stable, but contacts are then missed between steps)."""
+    n = bodies.n
+    if not (np.isfinite(bodies.x[:n]).all() and np.isfinite(bodies.y).all()):
+        raise NumericalError(f"non-finite positions after {steps} steps; reduce solver.dt "
+                             f"(now {scene['solver.dt']:g})")
+    y, r = bodies.y[:n], bodies.r
+    below = scene["plates.bottom"] == "fixed" and (y + r < bodies.y[n + SLOT_BOTTOM]).any()
+    above = scene["plates.top"] == "load" and (y - r > bodies.y[n + SLOT_TOP]).any()
+    if below or above:
+        raise NumericalError(f"disks passed through the {'bottom' if below else 'top'} plate "
+                             f"after {steps} steps: solver.dt = {scene['solver.dt']:g} is too "
+                             f"large for these loads; reduce it")
+
+
+def _load_carried(scene: Scene, bodies: Bodies, keys, rn) -> bool:
+    """Whether the packing carries the top plate: its contacts push up with at least
+    half the plate load (a plate that has not reached the disks is not at rest,
+    even if it moves slowly). True without a top plate."""
+    if scene["plates.top"] != "load":
+        return True
+    nb = bodies.n + N_WALL_SLOTS
+    on_plate = (keys % nb) == bodies.n + SLOT_TOP
+    return float(rn[on_plate].sum()) >= -0.5 * bodies.fy_ext[bodies.n + SLOT_TOP]
+
+
 def _velocity_scale(scene: Scene, bodies: Bodies) -> float:
-    """v0 = sqrt(F0 rbar / mbar): F0 the top-plate load, or the mean disk weight."""
-    m = scene["disks.density"] * np.pi * bodies.r**2
-    f0 = scene["plates.top_force"] if scene["plates.top"] == "load" \
-        else float(m.mean() * scene["physics.gravity"])
+    """v0 = sqrt(F rbar / mbar) in internal units: F the top-plate load, or the mean
+    disk weight."""
+    n = bodies.n
+    m = 1.0 / bodies.inv_mx[:n]
+    f0 = -bodies.fy_ext[n + SLOT_TOP] if scene["plates.top"] == "load" \
+        else float(-bodies.fy_ext[:n].mean())
     return float(np.sqrt(f0 * bodies.r.mean() / m.mean()))
 
 
@@ -348,6 +402,10 @@ def _packing_view(scene: Scene, bodies: Bodies, a, b, nx, ny, gap, image):
     point[wa, 1] = y[b[wa]] - r[b[wa]] * ny[wa]
     if scene["box.periodic_x"]:
         point[:, 0] -= scene["box.width"] * np.floor(point[:, 0] / scene["box.width"])
+    sigma = force_unit(scene)
+    density = scene["disks.density"]
+    if scene["disks.density_ratio"] != 1.0:     # per-disk densities, read off the masses
+        density = 1.0 / (bodies.inv_mx[:n] * np.pi * r**2)
     y_top = bodies.y[n + SLOT_TOP] if scene["plates.top"] == "load" else np.nan
     y_bot = bodies.y[n + SLOT_BOTTOM] if scene["plates.bottom"] == "fixed" else np.nan
 
@@ -356,10 +414,10 @@ def _packing_view(scene: Scene, bodies: Bodies, a, b, nx, ny, gap, image):
                        periodic_x=scene["box.periodic_x"], y_bottom=float(y_bot),
                        y_top=float(y_top),
                        top_force=scene["plates.top_force"] if scene["plates.top"] == "load" else 0.0,
-                       gravity=scene["physics.gravity"], density=scene["disks.density"],
+                       gravity=scene["physics.gravity"], density=density,
                        mu=scene["physics.mu"], plate_mu=scene["physics.plate_mu"],
                        a=pa, b=pb, normal=normal, point=point, image=image, gap=gap,
-                       fn=rn.copy(), ft=rt.copy(), seed=scene["scene.seed"],
+                       fn=rn * sigma, ft=rt * sigma, seed=scene["scene.seed"],
                        scene_text=scene.to_toml(), scene_name=scene.name)
     return make
 
@@ -372,7 +430,10 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
     seed = scene["scene.seed"]
     rng = np.random.default_rng(seed)
     x, y, r, height = loose_start(scene, rng)
-    bodies = make_bodies(scene, x, y, r, height)
+    density = None
+    if scene["disks.density_ratio"] != 1.0:      # log-uniform in [density, density*ratio]
+        density = scene["disks.density"] * scene["disks.density_ratio"] ** rng.uniform(0, 1, r.size)
+    bodies = make_bodies(scene, x, y, r, height, density)
     t0 = time.perf_counter()
     log = []
     meta = compress(scene, bodies, seed, show_progress, log=log, checkpoint=checkpoint)

@@ -44,7 +44,7 @@ class Packing:
     y_top: float             # bottom surface of the upper plate [R] (nan: no plate)
     top_force: float         # downward load on the upper plate [F0]
     gravity: float           # acceleration along -y [F0/(rho R^3)]
-    density: float           # 2-D density [rho]
+    density: float | np.ndarray  # 2-D density [rho], uniform or per disk (n,)
     mu: float                # disk-disk Coulomb friction
     plate_mu: float          # disk-wall Coulomb friction
     a: np.ndarray
@@ -73,7 +73,7 @@ class Packing:
     @property
     def mass(self) -> np.ndarray:
         """Disk masses, shape (n,) [rho R^2]."""
-        return self.density * np.pi * self.r**2
+        return np.asarray(self.density, float) * np.pi * self.r**2
 
     @property
     def tangent(self) -> np.ndarray:
@@ -140,28 +140,18 @@ class Packing:
         return self.fn > rel_threshold * max(self.mean_normal_force(), 1e-300)
 
     def rattlers(self, rel_threshold: float = 1e-9) -> np.ndarray:
-        """Boolean mask (n,) of rattlers.
+        """Boolean mask (n,) of rattlers: disks that carry no load.
 
-        Convention: iteratively remove disks with fewer than ``k_min``
-        force-bearing contacts (walls count as partners), where k_min = 3 for
-        frictionless packings (mu = 0) and 2 for frictional ones; removing a
-        rattler removes its contacts from its neighbours' counts.
+        Convention: a rattler has no force-bearing contact (fn above
+        ``rel_threshold`` times the mean normal force), whatever its number
+        of touching neighbours. A disk that bears load is never a rattler,
+        even with 1 or 2 contacts (a disk in a groove under gravity).
         """
-        k_min = 3 if self.mu == 0.0 and self.plate_mu == 0.0 else 2
         live = self.force_bearing(rel_threshold)
-        rattler = np.zeros(self.n_disks, dtype=bool)
-        while True:
-            count = np.zeros(self.n_disks, dtype=int)
-            np.add.at(count, self.a[live & (self.a >= 0)], 1)
-            np.add.at(count, self.b[live & (self.b >= 0)], 1)
-            new = (count < k_min) & ~rattler
-            if not new.any():
-                return rattler
-            rattler |= new
-            dead = np.zeros(self.n_disks + 1, dtype=bool)
-            dead[:-1] = rattler
-            live &= ~(dead[np.where(self.a >= 0, self.a, -1)] & (self.a >= 0))
-            live &= ~(dead[np.where(self.b >= 0, self.b, -1)] & (self.b >= 0))
+        carrying = np.zeros(self.n_disks, dtype=bool)
+        carrying[self.a[live & (self.a >= 0)]] = True
+        carrying[self.b[live & (self.b >= 0)]] = True
+        return ~carrying
 
     def coordination(self, rel_threshold: float = 1e-9) -> float:
         """z = 2 Nc / n over non-rattler disks, Nc = force-bearing contacts among them.
@@ -189,8 +179,9 @@ class Packing:
             "n_contacts": self.n_contacts,
             "n_force_bearing": int(self.force_bearing().sum()),
             "z": self.coordination(),
-            "z_convention": "2*Nc/n over non-rattlers; wall contacts count; "
-                            "rattler: < 3 (mu=0) or < 2 (mu>0) force-bearing contacts, iterated",
+            "z_convention": "2*Nc/n over non-rattlers, Nc force-bearing contacts "
+                            "(fn > 1e-9 <Fn>), wall contacts count; rattler: a disk with no "
+                            "force-bearing contact (carries no load)",
             "n_rattlers": int(rat.sum()),
             "mu": self.mu,
             "plate_mu": self.plate_mu,

@@ -5,6 +5,7 @@ Layout::
     /            attrs: file_kind="packing", forcespace_version, mu, plate_mu, seed,
                         scene_name, scene_text (the full TOML), units, conventions
     /disks       (n, 3) columns x, y, r                         [R]
+    /disk_density (n,)  per-disk density, only when not uniform  [rho]
     /box         attrs: width, periodic_x, y_bottom, y_top       [R]
                         top_force [F0], gravity, density
     /contacts/bodies  (Nc, 2) int  columns a, b   (disk index or wall code)
@@ -49,11 +50,14 @@ def write_packing(packing: Packing, path, kind: str = "packing", extra_attrs: di
         box.attrs.update({"width": p.width, "periodic_x": p.periodic_x,
                           "y_bottom": p.y_bottom, "y_top": p.y_top,
                           "top_force": p.top_force, "gravity": p.gravity,
-                          "density": p.density,
+                          "density": float(np.mean(p.density)),
                           "description": "width [R] (periodic in x if periodic_x), plate "
                                          "surfaces y_bottom, y_top [R] (nan: absent), "
                                          "top_force: downward load on the top plate [F0], "
                                          "gravity along -y, density of the disks"})
+        if np.ndim(p.density):
+            write_dataset(f, "disk_density", np.asarray(p.density, float), "rho",
+                          "2-D density of each disk (box/density is their mean)")
         c = f.create_group("contacts")
         c.attrs["description"] = CONVENTIONS
         write_dataset(c, "bodies", np.column_stack([p.a, p.b]).astype(np.int64), "1",
@@ -103,7 +107,8 @@ def read_packing(path, kind: str = "packing") -> Packing:
                 width=float(box["width"]), periodic_x=bool(box["periodic_x"]),
                 y_bottom=float(box["y_bottom"]), y_top=float(box["y_top"]),
                 top_force=float(box["top_force"]), gravity=float(box["gravity"]),
-                density=float(box["density"]),
+                density=(f["disk_density"][()] if "disk_density" in f
+                         else float(box["density"])),
                 mu=float(f.attrs["mu"]), plate_mu=float(f.attrs["plate_mu"]),
                 a=ab[:, 0].astype(np.int64), b=ab[:, 1].astype(np.int64),
                 normal=c["normal"][()].reshape(-1, 2), point=c["point"][()].reshape(-1, 2),

@@ -50,13 +50,31 @@ def _small_tol(v, _):
     return None if 0 < v < 1 else "must be in (0, 1)"
 
 
+def _int_in(lo, hi, why=""):
+    return lambda v, _: None if lo <= v <= hi else \
+        f"must be an integer in [{lo}, {hi}]" + (f" ({why})" if why else "")
+
+
+def _in_range(lo, hi, why=""):
+    return lambda v, _: None if lo < v <= hi else \
+        f"must be in ({lo:g}, {hi:g}]" + (f" ({why})" if why else "")
+
+
+MAX_RADIUS_RATIO = 1000.0
+
+
 def _radius_max(v, d):
     lo = d["disks.radius_min"]
-    return None if v >= lo else f"must be >= disks.radius_min ({lo})"
+    if not lo <= v <= MAX_RADIUS_RATIO * lo:
+        return (f"must be in [disks.radius_min, {MAX_RADIUS_RATIO:g} * disks.radius_min] = "
+                f"[{lo:g}, {MAX_RADIUS_RATIO * lo:g}]")
+    return None
 
 
 def _width(v, d):
     rmax = d["disks.radius_max"]
+    if v > 1e6 * d["disks.radius_min"]:
+        return f"must be <= 1e6 * disks.radius_min = {1e6 * d['disks.radius_min']:g}"
     if not d["box.periodic_x"]:
         return None if v >= 2.0 * rmax else f"must be >= 2 * disks.radius_max = {2 * rmax:g}"
     need = 4.0 * rmax + 2.0 * d["solver.contact_margin"]
@@ -79,26 +97,39 @@ def _bottom_mode(v, _):
 SCHEMA: dict[str, Key] = {
     "scene.name": Key(str, "", None, "short name of the scene"),
     "scene.description": Key(str, "", None, "free text"),
-    "scene.seed": Key(int, 1, _int_at_least(0), "random seed (radii, start positions, solver order)"),
-    "disks.n": Key(int, 200, _int_at_least(1), "number of disks"),
-    "disks.radius_min": Key(float, 1.0, _positive, "smallest radius [R]"),
+    "scene.seed": Key(int, 1, _int_in(0, 2**31 - 1),
+                      "random seed (radii, start positions, solver order)"),
+    "disks.n": Key(int, 200, _int_in(1, 1_000_000, "larger packings do not fit the solver's "
+                                     "memory and time budget"), "number of disks"),
+    "disks.radius_min": Key(float, 1.0, _in_range(0.0, 1e6), "smallest radius [R]"),
     "disks.radius_max": Key(float, 2.0, _radius_max, "largest radius [R]; radii uniform in [min, max]"),
-    "disks.density": Key(float, 1.0, _positive, "2-D density; disk mass = density*pi*r^2"),
+    "disks.density": Key(float, 1.0, _in_range(0.0, 1e12),
+                         "2-D density; disk mass = density*pi*r^2"),
+    "disks.density_ratio": Key(float, 1.0, lambda v, _: None if 1.0 <= v <= 1e9 else
+                               "must be in [1, 1e9]",
+                               "densities log-uniform in [density, density*ratio] "
+                               "(1: all disks alike)"),
     "box.width": Key(float, 42.0, _width, "box width along x [R]"),
     "box.periodic_x": Key(bool, True, None, "periodic along x (else fixed side walls)"),
     "box.initial_packing_fraction": Key(float, 0.35, _fraction,
                                         "area fraction of the random loose start"),
-    "physics.mu": Key(float, 0.0, _nonneg, "disk-disk Coulomb friction coefficient"),
-    "physics.plate_mu": Key(float, 0.0, _nonneg, "disk-wall Coulomb friction coefficient"),
-    "physics.gravity": Key(float, 0.0, _nonneg, "gravitational acceleration along -y"),
+    "physics.mu": Key(float, 0.0, lambda v, _: None if 0 <= v <= 1e6 else "must be in [0, 1e6]",
+                      "disk-disk Coulomb friction coefficient"),
+    "physics.plate_mu": Key(float, 0.0, lambda v, _: None if 0 <= v <= 1e6 else
+                            "must be in [0, 1e6]", "disk-wall Coulomb friction coefficient"),
+    "physics.gravity": Key(float, 0.0, lambda v, _: None if 0 <= v <= 1e12 else
+                           "must be in [0, 1e12]", "gravitational acceleration along -y"),
     "physics.rotation": Key(str, "auto", lambda v, _: None if v in ("auto", "on", "off") else
                             'must be "auto", "on" or "off"',
                             "integrate disk rotation: auto = only when any friction is present"),
     "plates.bottom": Key(str, "fixed", _bottom_mode, '"fixed" lower plate or "none"'),
     "plates.top": Key(str, "load", _top_mode, '"load": upper plate under constant force; "none"'),
-    "plates.top_force": Key(float, 1.0, _positive, "downward force on the top plate [F0]"),
-    "plates.top_mass": Key(float, 10.0, _positive, "mass of the top plate [rho R^2]"),
-    "solver.dt": Key(float, 0.02, _positive, "time step"),
+    "plates.top_force": Key(float, 1.0, _in_range(0.0, 1e100),
+                            "downward force on the top plate [F0]"),
+    "plates.top_mass": Key(float, 10.0, _in_range(0.0, 1e100), "mass of the top plate [rho R^2]"),
+    "solver.dt": Key(float, 0.02, _in_range(0.0, 1e6),
+                     "time step [sqrt(rho R^3 / F)], F the top-plate load (without a top "
+                     "plate rho*gravity*R^2): scaling every load leaves the run unchanged"),
     "solver.tolerance": Key(float, 1e-6, _small_tol,
                             "relative force change per sweep that ends a time step's NLGS"),
     "solver.max_sweeps": Key(int, 1000, _int_at_least(1), "sweep cap per time step"),
@@ -245,7 +276,13 @@ def load_scene(path) -> Scene:
     p = Path(path)
     if not p.is_file():
         raise InputError(p, "(file)", "does not exist or is not a file")
-    text = p.read_text()
+    try:
+        text = p.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(p, "(file)", f"is not a UTF-8 text file (byte {exc.start}): a scene "
+                         "is a TOML text file, e.g. inputs/quick.toml") from None
+    except OSError as exc:
+        raise InputError(p, "(file)", f"cannot be read ({exc.strerror})") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -28,8 +28,8 @@ Plate problem: as the full problem, but the TOP contacts are unknowns too and
 one extra row holds the plate's vertical balance (sum of their fn = top_force):
 S of the packing protocol itself, with a load-controlled plate.
 
-Rattler convention: ``Packing.rattlers()`` (fewer than 3 (mu=0) or 2 (mu>0)
-force-bearing contacts, iterated) decides. A rattler is never interior: its
+Rattler convention: ``Packing.rattlers()`` (a disk with no force-bearing
+contact: it carries no load) decides. A rattler is never interior: its
 3 rows are absent and every contact touching it is dropped entirely (neither
 unknown nor load: its force is 0 in the jammed state by construction). The
 dropped rattlers are listed in ``StaticsProblem.rattlers``. Contacts whose
