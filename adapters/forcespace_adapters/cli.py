@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import sys
 
-from forcespace.cli import print_json
+from forcespace.cli import EXIT_NOT_CONVERGED, print_json
 
 
 def _liggghts_opts(args):
@@ -51,7 +51,11 @@ def _cmd_run(args):
              timeout=getattr(args, "timeout", None),
              progress=progress if args.code == "pymunk" and args.verbose else None)
     print_json(st)
-    return 0 if st.get("converged") else 1
+    if st.get("converged"):
+        return 0
+    print(f"forcespace run: not converged: {args.code} stopped before its tolerance "
+          f"(steps {st.get('steps')}); the result is importable but flagged", file=sys.stderr)
+    return EXIT_NOT_CONVERGED
 
 
 def _cmd_import(args):
@@ -82,6 +86,10 @@ def _cmd_distance(args):
               f"{out['max_unmatched_force_rel']:.2e} <Fn>); lost rigid contacts: "
               f"{out['lost_contacts']} (max rigid force {out['max_lost_rigid_force_rel']:.2e} <Fn>)")
         print(f"max overlap: {out['max_overlap']:.3e} R")
+    if out["soft_run_converged"] is False:
+        print(f"forcespace distance: not converged: the soft run {out['soft_run_reason']}; "
+              "its distance to S is not a converged result", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
     return 0
 
 

@@ -59,7 +59,22 @@ def compare(rigid: Packing, soft: Packing, problem=None,
     out["unmatched"] = m.unmatched
     out["lost"] = m.lost
     out["run"] = {k: v for k, v in soft.meta.items() if isinstance(v, (int, float, str, bool))}
+    out["soft_run_converged"], out["soft_run_reason"] = run_status(soft.meta)
     return out
+
+
+def run_status(meta: dict):
+    """(converged, reason) of the soft run that made a network (its file's meta)."""
+    if "converged" not in meta:
+        return None, "the soft network records no convergence status"
+    if bool(meta["converged"]):
+        return True, "converged"
+    res, tol = meta.get("max_residual_force"), meta.get("tolerance_abs")
+    steps = meta.get("steps")
+    why = f"stopped at max_steps ({steps} steps)" if steps is not None else "did not converge"
+    if res is not None and tol is not None:
+        why += f" with largest per-disk force residual {res:.2e} F0 > tolerance {tol:.2e} F0"
+    return False, why
 
 
 def distance_between(rigid: Packing, soft1: Packing, soft2: Packing, problem=None) -> float:

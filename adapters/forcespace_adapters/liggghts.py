@@ -47,6 +47,8 @@ from pathlib import Path
 
 import numpy as np
 
+from forcespace.outputs import check_output_dir, mark_run_dir
+
 from forcespace.errors import ForcespaceError, InputError
 from forcespace.packing import BOTTOM, TOP, Packing
 
@@ -197,7 +199,7 @@ variable perr equal abs(c_ftop+{_fmt(T)})
         plate_cmds, thermo_extra, wall_cols, stop_plate, plate_print = "", "", "", "", ""
         cond = f'"${{rmax}} < {_fmt(tol_abs)}"'
 
-    directory = Path(directory)
+    directory = check_output_dir(directory)
     directory.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", dir=directory.parent))
     try:
@@ -325,7 +327,8 @@ run 0
                 "top_plate": plate,
                 "packing": {"scene_name": p.scene_name, "seed": p.seed}}
         (tmp / "deck.json").write_text(json.dumps(meta, indent=1))
-        if directory.exists():
+        mark_run_dir(tmp)
+        if directory.exists():    # empty, or made by forcespace (check_output_dir)
             shutil.rmtree(directory)
         os.replace(tmp, directory)
     except BaseException:

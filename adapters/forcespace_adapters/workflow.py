@@ -18,6 +18,7 @@ import numpy as np
 
 from forcespace.errors import InputError
 from forcespace.packing import Packing
+from forcespace.outputs import check_output_dir, check_output_file, mark_run_dir
 from forcespace.packing_file import read_packing, write_packing
 
 from . import liggghts
@@ -52,7 +53,7 @@ def export(code: str, packing_path, directory, options=None, y_range=None,
         raise InputError("export", "code", f"must be one of {CODES}", got=code)
     rigid = read_packing(packing_path)
     prob = soft_problem(rigid, y_range, top=top, source=packing_path)
-    d = Path(directory)
+    d = check_output_dir(directory)
     if code == "liggghts":
         if y_range is not None:
             raise InputError(packing_path, "slice", "LIGGGHTS export supports the full packing "
@@ -62,9 +63,10 @@ def export(code: str, packing_path, directory, options=None, y_range=None,
     else:
         opt = options or PymunkOptions()
         opt.validate()
-        if d.exists():
+        if d.exists():           # empty, or made by forcespace (check_output_dir)
             shutil.rmtree(d)
         d.mkdir(parents=True)
+        mark_run_dir(d)
     shutil.copyfile(packing_path, d / ".rigid.h5.tmp")
     os.replace(d / ".rigid.h5.tmp", d / "rigid.h5")
     _write_json(d / "run.json", {"code": code, "options": asdict(opt), "top": top,
@@ -78,7 +80,7 @@ def run(code: str, directory, binary=None, timeout=None, progress=None) -> dict:
     meta = _run_json(directory)
     if meta["code"] != code:
         raise InputError(directory, "run.json code", f"this directory is for {meta['code']}", got=code)
-    d = Path(directory)
+    d = check_output_dir(directory)
     if code == "liggghts":
         return liggghts.run_deck(d, binary=binary, timeout=timeout)
     rigid = read_packing(d / "rigid.h5")
@@ -117,6 +119,7 @@ def _attrs(soft: Packing) -> dict:
 
 def import_run(code: str, directory, out_path) -> Packing:
     """Read a finished run and write its soft network file ``out_path``."""
+    check_output_file(out_path)
     soft, _ = load_soft(code, directory)
     write_packing(soft, out_path, kind="soft_network", extra_attrs=_attrs(soft))
     return soft

@@ -77,18 +77,21 @@ def cmd_analyze(args) -> int:
 
 def cmd_sample(args) -> int:
     from .cli import print_json
+    from .outputs import check_output_file, output_lock
 
+    check_output_file(args.output, inputs=[args.packing])
     packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol)
     common = dict(packing_file=str(args.packing), scene_name=packing.scene_name,
                   scene_text=packing.scene_text, seed=args.seed, progress=not args.quiet,
                   checkpoint_every=args.checkpoint_every)
-    if args.sampler == "relax":
-        from . import relax_sampler as rs
-        res = rs.sample(problem, args.n, args.output, tol=args.tol, **common)
-    else:
-        from . import hit_and_run as har
-        res = har.sample(problem, args.n, args.output, chains=args.chains, thin=args.thin,
-                         burn_in=args.burn_in, direction=args.direction, **common)
+    with output_lock(args.output):
+        if args.sampler == "relax":
+            from . import relax_sampler as rs
+            res = rs.sample(problem, args.n, args.output, tol=args.tol, **common)
+        else:
+            from . import hit_and_run as har
+            res = har.sample(problem, args.n, args.output, chains=args.chains, thin=args.thin,
+                             burn_in=args.burn_in, direction=args.direction, **common)
     res["output"] = str(args.output)
     if res.get("n_projected"):
         print(f"forcespace sample: warning: {res['n_projected']} of {res['n_samples']} relax "

@@ -32,16 +32,19 @@ def register(sub):
 
 def cmd_pack(args) -> int:
     from .jamming import build_packing
+    from .outputs import check_output_file, output_lock
     from .packing_file import write_packing
     from .scene import load_scene
 
+    check_output_file(args.output, inputs=[args.scene])
     scene = load_scene(args.scene).with_overrides(
         **{"physics.mu": args.mu, "scene.seed": args.seed, "disks.n": args.n})
     checkpoint = Path(str(args.output) + ".checkpoint.npz")
-    if checkpoint.exists() and not args.quiet:
-        print(f"resuming from {checkpoint}")
-    packing = build_packing(scene, show_progress=not args.quiet, checkpoint=checkpoint)
-    write_packing(packing, args.output)
+    with output_lock(args.output):
+        if checkpoint.exists() and not args.quiet:
+            print(f"resuming from {checkpoint}")
+        packing = build_packing(scene, show_progress=not args.quiet, checkpoint=checkpoint)
+        write_packing(packing, args.output)
     s = packing.summary()
     print(f"{Path(args.output)}: {s['n_disks']} disks, {s['n_contacts']} contacts, "
           f"z = {s['z']:.3f} ({s['n_rattlers']} rattlers), mu = {s['mu']:g}, "
@@ -59,9 +62,12 @@ def cmd_info(args) -> int:
 
 
 def cmd_draw(args) -> int:
-    from .draw import draw_packing
+    from .draw import draw_packing, figure_targets
+    from .outputs import check_output_file
     from .packing_file import read_packing
 
+    for target in figure_targets(args.output):
+        check_output_file(target, inputs=[args.packing])
     draw_packing(read_packing(args.packing), args.output)
     print(f"wrote {args.output}")
     return 0

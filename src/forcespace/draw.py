@@ -9,11 +9,10 @@ from .h5io import atomic_path
 from .packing import Packing
 
 
-def _figure_backend():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+def figure_targets(path) -> list[Path]:
+    """The files a figure path produces: itself, and a PDF twin beside a PNG."""
+    path = Path(path)
+    return [path] + ([path.with_suffix(".pdf")] if path.suffix.lower() == ".png" else [])
 
 
 def branch_segments(p: Packing, values=None):
@@ -48,13 +47,15 @@ def draw_packing(p: Packing, path, title: str | None = None, values=None,
     difference of two admissible networks). Writes ``path`` (its suffix picks
     the format); ``.png`` also gets a ``.pdf`` twin.
     """
-    plt = _figure_backend()
     from matplotlib.collections import LineCollection, PatchCollection
+    from matplotlib.figure import Figure
     from matplotlib.patches import Circle
 
     seg, val = branch_segments(p, values)
     height = (p.y_top - p.y_bottom) if np.isfinite(p.y_top) else (p.y + p.r).max()
-    fig, ax = plt.subplots(figsize=(6, 6 * max(height, 1) / p.width + 0.6))
+    # a Figure without pyplot: no backend is selected or switched for the caller
+    fig = Figure(figsize=(6, 6 * max(height, 1) / p.width + 0.6))
+    ax = fig.add_subplot()
     shifts = [-1, 0, 1] if p.periodic_x else [0]
     patches = [Circle((x + s * p.width, y), r) for s in shifts for x, y, r in zip(p.x, p.y, p.r)]
     rat = np.tile(p.rattlers(), len(shifts))
@@ -81,13 +82,10 @@ def draw_packing(p: Packing, path, title: str | None = None, values=None,
     ax.set_title(title or f"{p.scene_name}: n={p.n_disks}, mu={p.mu:g}, z={p.coordination():.3f}")
     fig.tight_layout()
     save_figure(fig, path, dpi)
-    plt.close(fig)
 
 
 def save_figure(fig, path, dpi=150):
     """Save ``fig`` at ``path``; a PNG also gets a PDF twin. Atomic via temp + rename."""
-    path = Path(path)
-    targets = [path] + ([path.with_suffix(".pdf")] if path.suffix.lower() == ".png" else [])
-    for t in targets:
+    for t in figure_targets(path):
         with atomic_path(t) as tmp:
             fig.savefig(tmp, dpi=dpi, format=t.suffix.lstrip(".").lower() or "png")

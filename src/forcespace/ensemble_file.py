@@ -17,7 +17,10 @@ Layout::
     /checkpoint/...    state to resume: arrays + attrs (rng state as JSON)
 
 Every write goes through a temporary copy renamed into place (h5io), so a kill
-leaves either the previous or the new complete file.
+leaves either the previous or the new complete file; appends come at growing
+intervals (:func:`flush_due`) so the copying stays linear in the file size.
+(In-place appends to HDF5 are not crash-safe: a kill mid-write can corrupt the
+file, and SWMR mode leaves a crashed file unopenable until ``h5clear``.)
 """
 from __future__ import annotations
 
@@ -120,6 +123,22 @@ def create(path, problem: StaticsProblem, sampler: str, params: dict, packing_fi
         _write_state(f, "checkpoint", checkpoint, checkpoint_attrs)
 
 
+CHECKPOINT_SECONDS = 60.0
+
+
+def flush_due(n_buffered: int, n_written: int, every: int, since_last: float) -> bool:
+    """Whether a sampler should append its buffered samples now.
+
+    Every append rewrites the file (atomically, through a temporary copy), so
+    the interval grows with the file: at least ``every`` samples and at least
+    a tenth of those already written (total I/O linear in the final size, not
+    quadratic), but never more than CHECKPOINT_SECONDS of work at risk.
+    """
+    if n_buffered == 0:
+        return False
+    return n_buffered >= max(every, n_written // 10) or since_last >= CHECKPOINT_SECONDS
+
+
 def append(path, X, chains, violations, checkpoint: dict, checkpoint_attrs: dict) -> int:
     """Append samples X (k, 2m) and replace the checkpoint, atomically. Returns total count."""
     X = np.asarray(X, float)
@@ -144,7 +163,7 @@ def read(path, samples: bool = True) -> Ensemble:
             g = f["problem"]
             m = g["contacts"].shape[0]
             X = f["samples"][()].reshape(-1, 2 * m) if samples else np.empty((0, 2 * m))
-            return Ensemble(
+            return _check(Ensemble(
                 path=str(path), sampler=str(f.attrs["sampler"]), samples=X,
                 chains=f["sample_chain"][()], violations=f["sample_violation"][()],
                 contacts=g["contacts"][()], disks=g["disks"][()], mu=g["mu"][()],
@@ -153,10 +172,31 @@ def read(path, samples: bool = True) -> Ensemble:
                 setup={k: v[()] for k, v in f["setup"].items()},
                 checkpoint={k: v[()] for k, v in f["checkpoint"].items()},
                 checkpoint_attrs={k: (v.item() if hasattr(v, "item") else v)
-                                  for k, v in f["checkpoint"].attrs.items()})
+                                  for k, v in f["checkpoint"].attrs.items()}))
         except KeyError as exc:
             raise InputError(path, str(exc.args[0]) if exc.args else "?",
                              "missing; not a complete forcespace ensemble file") from None
+        except (ValueError, TypeError, OSError) as exc:
+            raise InputError(path, "(layout)", f"unreadable as a forcespace ensemble file "
+                             f"({exc})") from None
+
+
+def _check(ens: Ensemble) -> Ensemble:
+    """Shapes and finiteness of an ensemble read from disk (InputError otherwise)."""
+    m = ens.contacts.size
+    k = ens.n_samples
+    for name, shape in (("sample_chain", (k,)), ("sample_violation", (k,)),
+                        ("problem/mu", (m,)), ("problem/x_jammed", (2 * m,))):
+        arr = {"sample_chain": ens.chains, "sample_violation": ens.violations,
+               "problem/mu": ens.mu, "problem/x_jammed": ens.x_jammed}[name]
+        if arr.shape != shape:
+            raise InputError(ens.path, name, f"must have shape {shape}", got=arr.shape)
+    if not np.all(np.isfinite(ens.samples)):
+        raise InputError(ens.path, "samples", "must be finite (found NaN/inf)")
+    if not (np.isfinite(ens.force_scale) and ens.force_scale > 0):
+        raise InputError(ens.path, "force_scale", "must be a finite number > 0",
+                         got=ens.force_scale)
+    return ens
 
 
 def existing(path, problem: StaticsProblem, sampler: str, params: dict):

@@ -7,8 +7,9 @@ and renamed into place, so a crash never leaves a half-written result.
 from __future__ import annotations
 
 import contextlib
+import errno
+import io
 import os
-import shutil
 import tempfile
 from pathlib import Path
 
@@ -19,6 +20,7 @@ from . import __version__
 from .errors import InputError
 
 
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO}
 _UMASK = os.umask(0)
 os.umask(_UMASK)
 
@@ -37,36 +39,49 @@ def atomic_path(path):
         yield tmp
         os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp creates 0600; give the usual permissions
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+        if isinstance(exc, OSError) and exc.errno in _WRITE_ERRNOS:
+            raise InputError(path, "(write)", f"could not be written: {os.strerror(exc.errno)}; "
+                             f"nothing was changed") from None
         raise
 
 
 @contextlib.contextmanager
 def atomic_h5(path, mode_attrs: dict | None = None):
-    """Open a new HDF5 file for writing at a temporary path; rename on success.
+    """Open a new HDF5 file for writing; it reaches ``path`` atomically on success.
 
     Yields an open ``h5py.File``. Root attributes ``forcespace_version`` and
-    ``file_kind`` (from ``mode_attrs``) are set.
+    ``file_kind`` (from ``mode_attrs``) are set. The file is built in memory
+    and written with plain file I/O through :func:`atomic_path`: a failed
+    write (full disk, quota) is one clean error, where HDF5 writing to the
+    disk itself left an unclosable file id that crashed the interpreter.
     """
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    buf = io.BytesIO()
+    with h5py.File(buf, "w") as f:
         f.attrs["forcespace_version"] = __version__
         for k, v in (mode_attrs or {}).items():
             f.attrs[k] = v
         yield f
+    _write_bytes(path, buf)
 
 
 @contextlib.contextmanager
 def atomic_replace_copy(path):
-    """Modify an existing HDF5 file atomically: edit a copy opened ``r+``, then rename.
+    """Modify an existing HDF5 file atomically: edit an in-memory copy, then write
+    it to a temporary file renamed over ``path``. Used by the resumable samplers."""
+    buf = io.BytesIO(Path(path).read_bytes())
+    with h5py.File(buf, "r+") as f:
+        yield f
+    _write_bytes(path, buf)
 
-    Used by the resumable samplers.
-    """
-    with atomic_path(path) as tmp:
-        shutil.copyfile(path, tmp)
-        with h5py.File(tmp, "r+") as f:
-            yield f
+
+def _write_bytes(path, buf: io.BytesIO) -> None:
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        fh.write(buf.getbuffer())
+        fh.flush()
+        os.fsync(fh.fileno())
 
 
 def write_dataset(group, name, data, units: str, description: str, columns=None):

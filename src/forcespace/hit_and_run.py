@@ -347,8 +347,12 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
     T, s0 = ens.setup["T"], ens.setup["s0"]
     H = np.asfortranarray(ens.setup["H"])
     xc = ens.setup["x_centre"]
-    W = ens.checkpoint["w"].reshape(params["chains"], d).copy()
-    states = ens.checkpoint["rng"].astype(np.uint64).copy()
+    try:
+        W = ens.checkpoint["w"].reshape(params["chains"], d).copy()
+        states = ens.checkpoint["rng"].astype(np.uint64).reshape(params["chains"], 4).copy()
+    except (KeyError, ValueError) as exc:
+        raise InputError(out, "checkpoint", f"corrupt ({exc}); delete the file to restart") \
+            from None
     done = ens.n_samples
     bar = None
     if progress:
@@ -356,6 +360,7 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
         bar = tqdm(total=n, initial=min(done, n), desc="hit-and-run", unit="sample",
                    file=__import__("sys").stderr)
     buf_x, buf_c, buf_v = [], [], []
+    last_flush = time.perf_counter()
     coord = params["direction"] == "coordinate"
     while done + len(buf_x) < n:
         i = done + len(buf_x)
@@ -377,7 +382,9 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
             bar.update(1)
         last = done + len(buf_x) >= n
         timeout = max_seconds is not None and time.perf_counter() - t0 > max_seconds
-        if len(buf_x) >= checkpoint_every or last or timeout:
+        if last or timeout or ef.flush_due(len(buf_x), done, checkpoint_every,
+                                           time.perf_counter() - last_flush):
+            last_flush = time.perf_counter()
             done = ef.append(out, np.array(buf_x), buf_c, buf_v, {"w": W, "rng": states},
                              {"n_done": done + len(buf_x), "steps_per_sample": params["thin"]})
             buf_x, buf_c, buf_v = [], [], []

@@ -23,6 +23,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .errors import InputError
+
 BOTTOM, TOP, LEFT, RIGHT = -1, -2, -3, -4
 WALL_NAMES = {BOTTOM: "bottom", TOP: "top", LEFT: "left", RIGHT: "right"}
 
@@ -200,3 +202,58 @@ class Packing:
         if not (np.isfinite(self.y_top) and np.isfinite(self.y_bottom)):
             return None
         return float(np.pi * (self.r**2).sum() / (self.width * (self.y_top - self.y_bottom)))
+
+
+def check_packing(p: Packing, source="packing") -> Packing:
+    """Validate a packing's arrays (shapes, finiteness, ranges, indices); returns it.
+
+    Raises InputError naming ``source``, the field and what is allowed. Called
+    on every read of a packing file and before building a statics problem.
+    """
+    def bad(field, allowed, got=None):
+        raise InputError(source, field, allowed, got=got)
+
+    n = p.x.shape[0] if np.ndim(p.x) == 1 else bad("disks", "must be an (n, 3) table x, y, r")
+    if n == 0:
+        bad("disks", "the packing has no disks")
+    for name in ("y", "r"):
+        if np.shape(getattr(p, name)) != (n,):
+            bad(f"disks/{name}", f"must have shape ({n},)", got=np.shape(getattr(p, name)))
+    for name in ("x", "y", "r"):
+        if not np.all(np.isfinite(getattr(p, name))):
+            bad(f"disks/{name}", "must be finite (found NaN/inf)")
+    if np.any(p.r <= 0):
+        bad("disks/r", "radii must be > 0", got=float(np.min(p.r)))
+    rho = np.asarray(p.density, float)
+    if rho.shape not in ((), (n,)) or not np.all(np.isfinite(rho)) or np.any(rho <= 0):
+        bad("density", "must be finite and > 0 (one value or one per disk)")
+    for name, lo in (("mu", 0.0), ("plate_mu", 0.0), ("gravity", 0.0)):
+        v = getattr(p, name)
+        if not (np.isfinite(v) and v >= lo):
+            bad(name, f"must be a finite number >= {lo:g}", got=v)
+    if not (np.isfinite(p.width) and p.width > 0):
+        bad("box/width", "must be a finite number > 0", got=p.width)
+    if not np.isfinite(p.top_force):
+        bad("box/top_force", "must be finite", got=p.top_force)
+    for name in ("y_bottom", "y_top"):
+        if np.isinf(getattr(p, name)):
+            bad(f"box/{name}", "must be finite, or NaN for an absent plate")
+    nc = p.a.shape[0]
+    for name, shape in (("b", (nc,)), ("image", (nc,)), ("gap", (nc,)), ("fn", (nc,)),
+                        ("ft", (nc,)), ("normal", (nc, 2)), ("point", (nc, 2))):
+        if np.shape(getattr(p, name)) != shape:
+            bad(f"contacts/{name}", f"must have shape {shape}", got=np.shape(getattr(p, name)))
+    for name in ("a", "b"):
+        idx = np.asarray(getattr(p, name))
+        if idx.size and (idx.min() < RIGHT or idx.max() >= n):
+            bad("contacts/bodies", f"indices must be disks 0..{n - 1} or walls -1..-4",
+                got=(int(idx.min()), int(idx.max())))
+    if np.any(p.a == p.b):
+        bad("contacts/bodies", "a contact must join two different bodies")
+    for name in ("normal", "point", "gap", "fn", "ft"):
+        if not np.all(np.isfinite(getattr(p, name))):
+            bad(f"contacts/{name}" if name not in ("fn", "ft") else "forces",
+                "must be finite (found NaN/inf)")
+    if nc and np.abs(np.hypot(p.normal[:, 0], p.normal[:, 1]) - 1.0).max() > 1e-6:
+        bad("contacts/normal", "must be unit vectors")
+    return p

@@ -26,7 +26,7 @@ import numpy as np
 
 from .errors import InputError
 from .h5io import atomic_h5, open_h5, write_dataset
-from .packing import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES, Packing
+from .packing import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES, Packing, check_packing
 
 UNITS = ("lengths in R (smallest radius of the scene's range); masses in rho*R^2 "
          "(disk mass = density*pi*r^2); forces in F0 (the scene's force unit)")
@@ -102,7 +102,12 @@ def read_packing(path, kind: str = "packing") -> Packing:
             forces = f["forces"][()]
             meta = {k: (v.item() if hasattr(v, "item") else v) for k, v in f["meta"].attrs.items()
                     if k != "description"}
-            return Packing(
+            if d.ndim != 2 or d.shape[1] != 3:
+                raise InputError(path, "disks", "must be an (n, 3) table x, y, r", got=d.shape)
+            if ab.ndim != 2 or ab.shape[1] != 2:
+                raise InputError(path, "contacts/bodies", "must be an (Nc, 2) table a, b",
+                                 got=ab.shape)
+            p = Packing(
                 x=d[:, 0].copy(), y=d[:, 1].copy(), r=d[:, 2].copy(),
                 width=float(box["width"]), periodic_x=bool(box["periodic_x"]),
                 y_bottom=float(box["y_bottom"]), y_top=float(box["y_top"]),
@@ -120,3 +125,7 @@ def read_packing(path, kind: str = "packing") -> Packing:
         except KeyError as exc:
             raise InputError(path, str(exc.args[0]) if exc.args else "?",
                              "missing from the file; not a complete forcespace packing") from None
+        except (ValueError, TypeError, IndexError) as exc:
+            raise InputError(path, "(layout)", f"unreadable as a forcespace packing ({exc})") \
+                from None
+    return check_packing(p, path)

@@ -191,6 +191,7 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
                               "n_projected": len(projected_idx)})
         buf_x, buf_v = [], []
 
+    last_flush = time.perf_counter()
     try:
         while done + len(buf_x) < n:
             i = done + len(buf_x)
@@ -210,8 +211,10 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
                 bar.update(1)
                 bar.set_postfix(sweeps=res.sweeps, projected=len(projected_idx), refresh=False)
             timeout = max_seconds is not None and time.perf_counter() - t0 > max_seconds
-            if len(buf_x) >= checkpoint_every or timeout:
+            if timeout or ef.flush_due(len(buf_x), done, checkpoint_every,
+                                       time.perf_counter() - last_flush):
                 flush()
+                last_flush = time.perf_counter()
                 if timeout:
                     break
     finally:

@@ -44,7 +44,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import InputError
-from .packing import BOTTOM, LEFT, RIGHT, TOP, Packing
+from .packing import BOTTOM, LEFT, RIGHT, TOP, Packing, check_packing
 
 
 @dataclass
@@ -212,19 +212,6 @@ def _centre_y(p: Packing) -> float:
     return 0.5 * (p.y.min() + p.y.max())
 
 
-def _check(p: Packing, source):
-    for name in ("x", "y", "r", "normal", "fn", "ft"):
-        arr = np.asarray(getattr(p, name), float)
-        if not np.all(np.isfinite(arr)):
-            raise InputError(source, name, "must be finite (found NaN/inf)")
-    if p.n_disks == 0:
-        raise InputError(source, "disks", "packing has no disks")
-    if np.any(np.asarray(p.r) <= 0):
-        raise InputError(source, "r", "radii must be > 0")
-    if p.mu < 0 or p.plate_mu < 0:
-        raise InputError(source, "mu", "friction coefficients must be >= 0", got=(p.mu, p.plate_mu))
-
-
 def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
                   gap_tol: float = np.inf, source: str = "", support_mask=None,
                   rattlers=None) -> StaticsProblem:
@@ -236,7 +223,7 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     (their contacts with interior disks are unknowns, mu = packing mu).
     ``rattlers`` (n,) overrides ``Packing.rattlers()`` (for hand-built systems).
     """
-    _check(p, source or "packing")
+    check_packing(p, source or "packing")
     rat = p.rattlers() if rattlers is None else np.asarray(rattlers, bool)
     interior = np.asarray(interior_mask, bool) & ~rat
     disks = np.flatnonzero(interior)
