@@ -136,3 +136,25 @@ def test_ensemble_of_a_point_like_S_reports_no_ratio_of_round_off(tmp_path):
     rs.sample(prob, 10, tmp_path / "r2.h5", seed=1)
     out = ensemble_summary(tmp_path / "r2.h5")
     assert 0 < out["jammed_distance_over_mean"] < 10
+
+
+def test_hit_and_run_keeps_finished_samples_on_an_error(tmp_path, monkeypatch):
+    _, prob = grooves(THETAS, MU)
+    out = tmp_path / "h.h5"
+    real = har.har_steps
+    calls = {"n": 0}
+
+    def failing(*args):
+        calls["n"] += 1
+        if calls["n"] == 4 + 8:            # 4 burn-ins, then the 8th sample fails
+            raise NumericalError("simulated failure")
+        return real(*args)
+
+    monkeypatch.setattr(har, "har_steps", failing)
+    with pytest.raises(NumericalError, match="simulated"):
+        har.sample(prob, 20, out, seed=3, checkpoint_every=5)
+    assert ef.read(out).n_samples == 7
+    monkeypatch.setattr(har, "har_steps", real)
+    har.sample(prob, 20, out, seed=3, checkpoint_every=5)   # resumes from the last good state
+    X = ef.read(out).samples
+    assert X.shape[0] == 20 and max(prob.violation(x) for x in X) <= har.MAX_VIOLATION

@@ -362,34 +362,45 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
     buf_x, buf_c, buf_v = [], [], []
     last_flush = time.perf_counter()
     coord = params["direction"] == "coordinate"
-    while done + len(buf_x) < n:
-        i = done + len(buf_x)
-        c = i % params["chains"]
-        if d:
-            bad = har_steps(H, s0, W[c], states[c], params["thin"], coord)
-            if bad > params["thin"] // 2:
-                raise NumericalError("hit-and-run: most chords degenerate; S is (numerically) "
-                                     "flat in a direction the analysis kept")
-        x = xc + T @ W[c]
-        v = problem.violation(x)
-        if not v <= MAX_VIOLATION:
-            raise NumericalError(f"hit-and-run sample {i} violates S by {v:.3e} x <Fn> "
-                                 f"(> {MAX_VIOLATION})")
-        buf_x.append(x)
-        buf_c.append(c)
-        buf_v.append(v)
-        if bar is not None:
-            bar.update(1)
-        last = done + len(buf_x) >= n
-        timeout = max_seconds is not None and time.perf_counter() - t0 > max_seconds
-        if last or timeout or ef.flush_due(len(buf_x), done, checkpoint_every,
-                                           time.perf_counter() - last_flush):
-            last_flush = time.perf_counter()
-            done = ef.append(out, np.array(buf_x), buf_c, buf_v, {"w": W, "rng": states},
+    state_ok = (W.copy(), states.copy())     # chain state after the last accepted sample
+
+    def flush():
+        nonlocal done, buf_x, buf_c, buf_v
+        if buf_x:
+            done = ef.append(out, np.array(buf_x), buf_c, buf_v,
+                             {"w": state_ok[0], "rng": state_ok[1]},
                              {"n_done": done + len(buf_x), "steps_per_sample": params["thin"]})
-            buf_x, buf_c, buf_v = [], [], []
-            if timeout:
-                break
+        buf_x, buf_c, buf_v = [], [], []
+
+    try:
+        while done + len(buf_x) < n:
+            i = done + len(buf_x)
+            c = i % params["chains"]
+            if d:
+                bad = har_steps(H, s0, W[c], states[c], params["thin"], coord)
+                if bad > params["thin"] // 2:
+                    raise NumericalError("hit-and-run: most chords degenerate; S is "
+                                         "(numerically) flat in a direction the analysis kept")
+            x = xc + T @ W[c]
+            v = problem.violation(x)
+            if not v <= MAX_VIOLATION:
+                raise NumericalError(f"hit-and-run sample {i} violates S by {v:.3e} x <Fn> "
+                                     f"(> {MAX_VIOLATION})")
+            buf_x.append(x)
+            buf_c.append(c)
+            buf_v.append(v)
+            state_ok[0][c], state_ok[1][c] = W[c], states[c]
+            if bar is not None:
+                bar.update(1)
+            timeout = max_seconds is not None and time.perf_counter() - t0 > max_seconds
+            if timeout or ef.flush_due(len(buf_x), done, checkpoint_every,
+                                       time.perf_counter() - last_flush):
+                flush()
+                last_flush = time.perf_counter()
+                if timeout:
+                    break
+    finally:
+        flush()            # finished samples are never lost, whatever stops the walk
     if bar is not None:
         bar.close()
     ens = ef.read(out)
