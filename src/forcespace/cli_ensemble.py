@@ -23,8 +23,9 @@ def _scene_slice_height(packing):
     return h if h > 0 else None
 
 
-def load_problem(path, slice_height=None, full=False, gap_tol=float("inf")):
-    """Read a packing file and build the requested statics problem."""
+def load_problem(path, slice_height=None, full=False, gap_tol=float("inf"), mu=None):
+    """Read a packing file and build the requested statics problem (``mu``: disk-disk
+    friction instead of the packing's own)."""
     from .packing_file import read_packing
     from .statics import full_problem, slice_problem
 
@@ -34,9 +35,9 @@ def load_problem(path, slice_height=None, full=False, gap_tol=float("inf")):
     if not full and slice_height is None:
         slice_height = _scene_slice_height(packing)
     if full or slice_height is None:
-        problem = full_problem(packing, gap_tol=gap_tol, source=str(path))
+        problem = full_problem(packing, gap_tol=gap_tol, source=str(path), mu=mu)
     else:
-        problem = slice_problem(packing, slice_height, gap_tol=gap_tol, source=str(path))
+        problem = slice_problem(packing, slice_height, gap_tol=gap_tol, source=str(path), mu=mu)
     return packing, problem
 
 
@@ -49,6 +50,9 @@ def _add_problem_args(p):
                    help="whole packing: bottom plate a support, top-plate forces fixed")
     p.add_argument("--gap-tol", type=float, default=float("inf"), metavar="G",
                    help="contacts with gap > G [R] are open and dropped (default: keep all)")
+    p.add_argument("--mu", type=float, default=None, metavar="MU",
+                   help="disk-disk friction of S instead of the packing's own (e.g. a "
+                        "frictionless packing with friction switched on); walls keep plate_mu")
 
 
 def cmd_analyze(args) -> int:
@@ -57,9 +61,10 @@ def cmd_analyze(args) -> int:
     from .polytope import analyze
 
     t0 = time.perf_counter()
-    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol)
+    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
     an = analyze(problem, ranges=args.ranges, centre=True)
-    out = {"packing": str(args.packing), "kind": problem.kind, "slice_height": problem.height}
+    out = {"packing": str(args.packing), "kind": problem.kind, "slice_height": problem.height,
+           "packing_mu": packing.mu, "mu_override": args.mu}
     out.update(measures.summary(problem, an, packing=packing))
     out.update({k: v for k, v in an.summary().items() if k not in out})
     out["n_rattlers_excluded"] = int(problem.rattlers.size)
@@ -80,7 +85,7 @@ def cmd_sample(args) -> int:
     from .outputs import check_output_file, output_lock
 
     check_output_file(args.output, inputs=[args.packing])
-    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol)
+    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
     common = dict(packing_file=str(args.packing), scene_name=packing.scene_name,
                   scene_text=packing.scene_text, seed=args.seed, progress=not args.quiet,
                   checkpoint_every=args.checkpoint_every)
@@ -114,6 +119,7 @@ def ensemble_summary(path) -> dict:
     out = {"ensemble": str(path), "sampler": ens.sampler, "n_samples": ens.n_samples,
            "packing_file": ens.attrs.get("packing_file"), "scene_name": ens.attrs.get("scene_name"),
            "problem_kind": ens.attrs.get("problem_kind"),
+           "mu_override": ens.attrs.get("mu_override"),
            "slice_height": ens.attrs.get("slice_height"),
            "n_contacts": int(ens.contacts.size), "force_scale": ens.force_scale,
            "max_violation": float(ens.violations.max(initial=0.0)),

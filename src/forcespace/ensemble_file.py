@@ -4,6 +4,8 @@ Layout::
 
     /            attrs: file_kind="ensemble", forcespace_version, sampler,
                         packing_file, scene_name, scene_text, problem_kind,
+                        mu_override (disk-disk friction used instead of the
+                        packing's own, NaN if none),
                         slice_height, fingerprint, params (JSON), units,
                         conventions, tolerance_description
     /problem/contacts  (m,)  packing contact index of each unknown contact
@@ -99,6 +101,8 @@ def create(path, problem: StaticsProblem, sampler: str, params: dict, packing_fi
             "slice_height": np.nan if problem.height is None else problem.height,
             "fingerprint": fp, "params": json.dumps(params, sort_keys=True),
             "force_scale": problem.force_scale,
+            "mu_override": np.nan if problem.meta.get("mu_override") is None
+            else float(problem.meta["mu_override"]),
             "units": "forces in F0 (the packing's force unit); lengths in R",
             "conventions": "samples[k, j] = (fn, ft) of unknown contact j (packing contact "
                            "problem/contacts[j]); force fn*n + ft*t on body b, t = (-ny, nx)",

@@ -214,7 +214,7 @@ def _centre_y(p: Packing) -> float:
 
 def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
                   gap_tol: float = np.inf, source: str = "", support_mask=None,
-                  rattlers=None) -> StaticsProblem:
+                  rattlers=None, mu: float | None = None) -> StaticsProblem:
     """Assemble the problem for the interior disks given by ``interior_mask`` (n,).
 
     ``unknown_walls``: wall codes whose contacts with interior disks are unknowns
@@ -222,7 +222,13 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     optionally marks non-interior disks that act as fixed supports as well
     (their contacts with interior disks are unknowns, mu = packing mu).
     ``rattlers`` (n,) overrides ``Packing.rattlers()`` (for hand-built systems).
+    ``mu``: friction coefficient of the disk-disk contacts instead of the
+    packing's own (the paper's frictionless packing "with friction switched
+    on"); wall contacts keep ``plate_mu``. Recorded as ``meta["mu_override"]``.
     """
+    if mu is not None and not (np.isfinite(mu) and mu >= 0):
+        raise InputError(source or "problem", "mu", "must be a finite number >= 0", got=mu)
+    mu_override = None if mu is None else float(mu)
     check_packing(p, source or "packing")
     rat = p.rattlers() if rattlers is None else np.asarray(rattlers, bool)
     interior = np.asarray(interior_mask, bool) & ~rat
@@ -252,7 +258,8 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     contacts = np.flatnonzero(unknown)
     m = contacts.size
 
-    mu = np.where((a[contacts] < 0) | (bb[contacts] < 0), p.plate_mu, p.mu).astype(float)
+    mu_disks = p.mu if mu_override is None else mu_override
+    mu = np.where((a[contacts] < 0) | (bb[contacts] < 0), p.plate_mu, mu_disks).astype(float)
     nrm = np.asarray(p.normal, float)
     tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
     r = np.asarray(p.r, float)
@@ -338,28 +345,31 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
               "packing_fn": np.asarray(p.fn, float).copy(),
               "packing_ft": np.asarray(p.ft, float).copy(),
               "wall_codes": wall_codes, "packing_mu": p.mu, "plate_mu": p.plate_mu,
+              "mu_override": mu_override,
               "scene_name": p.scene_name})
 
 
 def slice_problem(packing: Packing, height: float, gap_tol: float = np.inf,
-                  source: str = "") -> StaticsProblem:
+                  source: str = "", mu: float | None = None) -> StaticsProblem:
     """The paper's slice: disks with |y - y_c| <= height/2 (see module docstring)."""
     if not (np.isfinite(height) and height > 0):
         raise InputError(source or "slice", "height", "must be a finite number > 0 [R]", got=height)
     yc = _centre_y(packing)
     mask = np.abs(np.asarray(packing.y, float) - yc) <= 0.5 * height
     return build_problem(packing, mask, unknown_walls=(), kind="slice", height=float(height),
-                         gap_tol=gap_tol, source=source)
+                         gap_tol=gap_tol, source=source, mu=mu)
 
 
-def full_problem(packing: Packing, gap_tol: float = np.inf, source: str = "") -> StaticsProblem:
+def full_problem(packing: Packing, gap_tol: float = np.inf, source: str = "",
+                 mu: float | None = None) -> StaticsProblem:
     """All non-rattler disks; BOTTOM (and side walls) are supports, TOP forces are loads."""
     mask = np.ones(packing.n_disks, dtype=bool)
     return build_problem(packing, mask, unknown_walls=(BOTTOM, LEFT, RIGHT), kind="full",
-                         gap_tol=gap_tol, source=source)
+                         gap_tol=gap_tol, source=source, mu=mu)
 
 
-def plate_problem(packing: Packing, gap_tol: float = np.inf, source: str = "") -> StaticsProblem:
+def plate_problem(packing: Packing, gap_tol: float = np.inf, source: str = "",
+                  mu: float | None = None) -> StaticsProblem:
     """Full packing under a load-controlled top plate: TOP contacts are unknowns too
     (friction plate_mu) and one extra row holds the plate's vertical balance
     sum(fn over TOP contacts) = top_force.
@@ -370,7 +380,7 @@ def plate_problem(packing: Packing, gap_tol: float = np.inf, source: str = "") -
     """
     mask = np.ones(packing.n_disks, dtype=bool)
     prob = build_problem(packing, mask, unknown_walls=(BOTTOM, TOP, LEFT, RIGHT),
-                         kind="full_plate", gap_tol=gap_tol, source=source)
+                         kind="full_plate", gap_tol=gap_tol, source=source, mu=mu)
     top_cols = 2 * np.flatnonzero(np.asarray(packing.b)[prob.contacts] == TOP)
     row = sp.csr_matrix((np.ones(top_cols.size), (np.zeros(top_cols.size, dtype=int), top_cols)),
                         shape=(1, prob.n_columns))
