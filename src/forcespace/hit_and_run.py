@@ -227,8 +227,12 @@ def diagnostics(samples: np.ndarray, chains: np.ndarray, seed: int = 0) -> dict:
         per = [pr[chains == c] for c in ids]
         rh.append(split_rhat(per))
         es.append(ess(per))
-    out["rhat_projections_max"] = float(np.nanmax(rh))
-    out["ess_projections_min"] = float(np.nanmin(es))
+    # chains too short for split R-hat / ESS give NaN: reported as None, not a warning
+    rh, es = np.asarray(rh, float), np.asarray(es, float)
+    out["rhat_projections_max"] = float(rh[np.isfinite(rh)].max()) if np.isfinite(rh).any() \
+        else None
+    out["ess_projections_min"] = float(es[np.isfinite(es)].min()) if np.isfinite(es).any() \
+        else None
     out["eta_per_chain"] = [float(eta_fn(X[chains == c])) if (chains == c).sum() > 1
                             else float("nan") for c in ids]
     return out
