@@ -39,23 +39,32 @@ def branch_segments(p: Packing, values=None):
     return seg, (p.fn if values is None else values)
 
 
-def draw_packing(p: Packing, path, title: str | None = None, values=None,
-                 signed: bool = False, dpi: int = 150):
-    """Draw disks and the force network; line width proportional to |value| (default fn).
+def new_axes(p: Packing):
+    """A fresh Axes sized for the packing, on a Figure made without pyplot (no
+    backend is selected or switched for the caller)."""
+    from matplotlib.figure import Figure
 
-    ``signed=True`` colours positive and negative values differently (for the
-    difference of two admissible networks). Writes ``path`` (its suffix picks
-    the format); ``.png`` also gets a ``.pdf`` twin.
+    height = (p.y_top - p.y_bottom) if np.isfinite(p.y_top) else (p.y + p.r).max()
+    fig = Figure(figsize=(6, 6 * max(height, 1) / p.width + 0.6))
+    return fig.add_subplot()
+
+
+def plot_packing(p: Packing, ax=None, values=None, signed: bool = False,
+                 highlight=None, title: str | None = None):
+    """Draw disks and a force network on ``ax`` (a new one if None); returns the Axes.
+
+    ``values`` (Nc,) per packing contact (default fn [F0]); line width is
+    proportional to |value|. ``signed=True`` colours positive red and negative
+    blue (the difference of two admissible networks). ``highlight``: list of
+    disk-index arrays (e.g. indeterminacy domains), each outlined in its own
+    colour. Rattlers are drawn pale.
     """
     from matplotlib.collections import LineCollection, PatchCollection
-    from matplotlib.figure import Figure
     from matplotlib.patches import Circle
 
+    ax = new_axes(p) if ax is None else ax
     seg, val = branch_segments(p, values)
-    height = (p.y_top - p.y_bottom) if np.isfinite(p.y_top) else (p.y + p.r).max()
-    # a Figure without pyplot: no backend is selected or switched for the caller
-    fig = Figure(figsize=(6, 6 * max(height, 1) / p.width + 0.6))
-    ax = fig.add_subplot()
+    val = np.asarray(val, float)
     shifts = [-1, 0, 1] if p.periodic_x else [0]
     patches = [Circle((x + s * p.width, y), r) for s in shifts for x, y, r in zip(p.x, p.y, p.r)]
     rat = np.tile(p.rattlers(), len(shifts))
@@ -68,20 +77,47 @@ def draw_packing(p: Packing, path, title: str | None = None, values=None,
     colors = np.where((val >= 0)[:, None], [[0.8, 0.1, 0.1, 1]], [[0.1, 0.3, 0.9, 1]]) \
         if signed else "k"
     for s in shifts:
-        lc = LineCollection(seg + np.array([s * p.width, 0]), linewidths=widths, colors=colors)
-        ax.add_collection(lc)
+        ax.add_collection(LineCollection(seg + np.array([s * p.width, 0]), linewidths=widths,
+                                         colors=colors))
+    for q, disks in enumerate(highlight or []):
+        colour = f"C{q % 10}"
+        ax.add_collection(PatchCollection(
+            [Circle((p.x[i] + s * p.width, p.y[i]), p.r[i]) for s in shifts for i in disks],
+            facecolor="none", edgecolor=colour, linewidth=1.6))
     for yy in (p.y_bottom, p.y_top):
         if np.isfinite(yy):
             ax.axhline(yy, color="0.2", lw=2)
-    ax.set_xlim(0, p.width)
+    height = (p.y_top - p.y_bottom) if np.isfinite(p.y_top) else (p.y + p.r).max()
     lo = p.y_bottom if np.isfinite(p.y_bottom) else (p.y - p.r).min()
+    ax.set_xlim(0, p.width)
     ax.set_ylim(lo - 0.5, lo + height + 0.5)
     ax.set_aspect("equal")
     ax.set_xlabel("x [R]")
     ax.set_ylabel("y [R]")
     ax.set_title(title or f"{p.scene_name}: n={p.n_disks}, mu={p.mu:g}, z={p.coordination():.3f}")
-    fig.tight_layout()
-    save_figure(fig, path, dpi)
+    return ax
+
+
+def plot_difference(packing: Packing, problem, x1, x2, domains=None, ax=None,
+                    title: str | None = None):
+    """The signed difference x2 - x1 of two networks of ``problem`` (each (2m,) [F0]):
+    normal-force differences red (+) / blue (-), width by magnitude, with the
+    disks of each domain (:class:`forcespace.measures.Domain`) outlined. Returns the Axes."""
+    d = np.zeros(packing.n_contacts)
+    diff = np.asarray(x2, float) - np.asarray(x1, float)
+    d[problem.contacts] = diff[0::2]
+    return plot_packing(packing, ax, values=d, signed=True,
+                        highlight=[g.disks for g in (domains or [])],
+                        title=title or "difference of two admissible networks (fn)")
+
+
+def draw_packing(p: Packing, path, title: str | None = None, values=None,
+                 signed: bool = False, dpi: int = 150):
+    """:func:`plot_packing` written to ``path`` (its suffix picks the format; a
+    ``.png`` also gets a ``.pdf`` twin)."""
+    ax = plot_packing(p, None, values=values, signed=signed, title=title)
+    ax.figure.tight_layout()
+    save_figure(ax.figure, path, dpi)
 
 
 def save_figure(fig, path, dpi=150):

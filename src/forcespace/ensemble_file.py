@@ -29,12 +29,11 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from .errors import InputError
-from .h5io import atomic_h5, atomic_replace_copy, open_h5, write_dataset
+from .h5io import atomic_h5, atomic_replace_copy, exists, open_h5, write_dataset
 from .statics import StaticsProblem
 
 KIND = "ensemble"
@@ -74,6 +73,39 @@ class Ensemble:
     @property
     def n_samples(self) -> int:
         return int(self.samples.shape[0])
+
+    @property
+    def forces(self) -> np.ndarray:
+        """Sampled forces (k, m, 2): fn, ft of each unknown contact [F0]."""
+        return self.samples.reshape(self.n_samples, -1, 2)
+
+    @property
+    def eta(self) -> float:
+        """The paper's force ambiguity of the samples (:func:`forcespace.measures.eta`)."""
+        from .measures import eta
+        return eta(self.samples)
+
+    def distances_from_centre(self):
+        """(l (k,), l0, lbar) [F0]: distances of the samples and of the jammed state
+        from the samples' mean (the paper's Fig. 3)."""
+        from .measures import distance_from_centre
+        return distance_from_centre(self.samples, self.x_jammed)
+
+    def plot(self, packing, sample: int = -1, ax=None, **kw):
+        """Draw sample ``sample`` (default the last) as the force network of
+        ``packing`` (fixed loads keep their values); returns the Axes."""
+        fn = np.array(packing.fn, float)
+        ft = np.array(packing.ft, float)
+        fn[self.contacts] = self.forces[sample, :, 0]
+        ft[self.contacts] = self.forces[sample, :, 1]
+        kw.setdefault("title", f"{self.sampler} sample {sample % self.n_samples} of "
+                               f"{self.n_samples}")
+        return packing.plot(ax, values=fn, **kw)
+
+    def __repr__(self) -> str:
+        where = f", path={self.path!r}" if self.path and not self.path.startswith("<") else ""
+        return (f"Ensemble(sampler={self.sampler!r}, n_samples={self.n_samples}, "
+                f"n_contacts={self.contacts.size}{where})")
 
 
 def _write_state(f, group_name, arrays: dict, attrs: dict | None = None, describe=None):
@@ -208,9 +240,9 @@ def existing(path, problem: StaticsProblem, sampler: str, params: dict):
 
     Raises InputError if the file belongs to another problem/sampler/parameters.
     """
-    p = Path(path)
-    if not p.exists():
+    if not exists(path):
         return None
+    p = path
     ens = read(p)
     if ens.attrs.get("fingerprint") != fingerprint(problem, sampler, params):
         raise InputError(p, "fingerprint", "belongs to another packing, slice, sampler or "

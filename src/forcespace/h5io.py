@@ -48,6 +48,30 @@ def atomic_path(path):
         raise
 
 
+class MemoryFile:
+    """An HDF5 file held in memory: pass it wherever forcespace takes an output or
+    input file path (e.g. a sampler's ``out``) to keep the result off the disk."""
+
+    def __init__(self, name: str = "<memory>"):
+        self.name = name
+        self.data: bytes | None = None
+
+    def exists(self) -> bool:
+        return self.data is not None
+
+    def __str__(self) -> str:
+        return self.name
+
+    def __repr__(self) -> str:
+        size = "empty" if self.data is None else f"{len(self.data)} bytes"
+        return f"MemoryFile({self.name!r}, {size})"
+
+
+def exists(path) -> bool:
+    """Whether a file path or a :class:`MemoryFile` holds a file."""
+    return path.exists() if isinstance(path, MemoryFile) else Path(path).exists()
+
+
 @contextlib.contextmanager
 def atomic_h5(path, mode_attrs: dict | None = None):
     """Open a new HDF5 file for writing; it reaches ``path`` atomically on success.
@@ -71,13 +95,16 @@ def atomic_h5(path, mode_attrs: dict | None = None):
 def atomic_replace_copy(path):
     """Modify an existing HDF5 file atomically: edit an in-memory copy, then write
     it to a temporary file renamed over ``path``. Used by the resumable samplers."""
-    buf = io.BytesIO(Path(path).read_bytes())
+    buf = io.BytesIO(path.data if isinstance(path, MemoryFile) else Path(path).read_bytes())
     with h5py.File(buf, "r+") as f:
         yield f
     _write_bytes(path, buf)
 
 
 def _write_bytes(path, buf: io.BytesIO) -> None:
+    if isinstance(path, MemoryFile):
+        path.data = buf.getvalue()
+        return
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         fh.write(buf.getbuffer())
         fh.flush()
@@ -99,11 +126,16 @@ def open_h5(path, kind: str | None = None):
 
     ``kind`` checks the root attribute ``file_kind`` (e.g. "packing").
     """
-    p = Path(path)
-    if not p.exists():
-        raise InputError(p, "(file)", "does not exist")
+    if isinstance(path, MemoryFile):
+        if path.data is None:
+            raise InputError(path, "(file)", "is empty")
+        p, source = path, io.BytesIO(path.data)
+    else:
+        p = source = Path(path)
+        if not p.exists():
+            raise InputError(p, "(file)", "does not exist")
     try:
-        f = h5py.File(p, "r")
+        f = h5py.File(source, "r")
     except OSError as exc:
         raise InputError(p, "(file)", f"is not a readable HDF5 file ({exc})") from None
     if kind is not None:

@@ -416,3 +416,30 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
 
 def load_params(path) -> dict:
     return json.loads(ef.read(path, samples=False).attrs["params"])
+
+
+class HitAndRun:
+    """Uniform samples of S by hit-and-run (compute object; see :func:`sample`).
+
+    ``HitAndRun(n=100, seed=1).run(problem)`` returns the samples as an
+    :class:`~forcespace.ensemble_file.Ensemble` in memory; ``output=PATH``
+    writes (and resumes) an ensemble file instead.
+    """
+
+    def __init__(self, n: int = 100, seed: int = 0, chains: int | None = None,
+                 thin: int | None = None, burn_in: int | None = None,
+                 direction: str | None = None, progress: bool = False):
+        check_options(n, chains, thin, burn_in, direction)
+        self.n, self.seed, self.progress = n, seed, progress
+        self.options = dict(chains=chains, thin=thin, burn_in=burn_in, direction=direction)
+        self.summary: dict = {}
+
+    def run(self, problem: StaticsProblem, output=None) -> "ef.Ensemble":
+        from .h5io import MemoryFile
+        out = MemoryFile("<hit-and-run>") if output is None else output
+        self.summary = sample(problem, self.n, out, seed=self.seed, progress=self.progress,
+                              **self.options)
+        return ef.read(out)
+
+    def __repr__(self) -> str:
+        return f"HitAndRun(n={self.n}, seed={self.seed})"

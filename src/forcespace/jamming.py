@@ -448,3 +448,19 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
             f"jamming.static_tolerance after {static['static_sweeps']} sweeps")
     packing.meta = meta
     return packing
+
+
+def jam(scene, progress: bool = False, checkpoint=None, **overrides) -> Packing:
+    """Jam a packing by the scene's protocol and return it.
+
+    ``scene``: a :class:`~forcespace.scene.Scene` or the path of a scene file;
+    ``overrides``: scene keys with dots replaced by double underscores, e.g.
+    ``jam("inputs/quick.toml", physics__mu=0.3, disks__n=30)``. ``checkpoint``:
+    a file to resume an interrupted compression from.
+    """
+    from .scene import load_scene
+
+    sc = scene if isinstance(scene, Scene) else load_scene(scene)
+    if overrides:
+        sc = sc.with_overrides(**{k.replace("__", "."): v for k, v in overrides.items()})
+    return build_packing(sc, show_progress=progress, checkpoint=checkpoint)

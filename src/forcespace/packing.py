@@ -63,6 +63,88 @@ class Packing:
     meta: dict = field(default_factory=dict)
     solver_log: np.ndarray | None = None  # (k, 5): step, max |v|, |v_top|, sweeps/step, rel. change
 
+    # ---- construction, files, figures ----------------------------------------
+    @classmethod
+    def from_arrays(cls, x, y, r, a, b, fn=None, ft=None, *, width=None, periodic_x=False,
+                    image=None, y_bottom=np.nan, y_top=np.nan, top_force=0.0, gravity=0.0,
+                    density=1.0, mu=0.0, plate_mu=0.0, scene_name="") -> "Packing":
+        """A packing from positions, radii and a contact list; geometry derived.
+
+        x, y, r (n,) [R]; a, b (Nc,) body indices (disks >= 0, walls BOTTOM,
+        TOP, LEFT, RIGHT with the wall conventions of the module docstring);
+        fn, ft (Nc,) [F0] (default 0). Normals, contact points and gaps come
+        from the geometry (periodic x: b at x_b + image*width, image default
+        the minimum image). Without ``width`` a non-periodic box spans the disks.
+        """
+        x, y, r = (np.asarray(v, float).copy() for v in (x, y, r))
+        a = np.asarray(a, np.int64).copy()
+        b = np.asarray(b, np.int64).copy()
+        nc = a.shape[0]
+        if width is None:
+            if periodic_x:
+                raise InputError("from_arrays", "width", "is needed with periodic_x")
+            width = float((x + r).max() - min(0.0, (x - r).min()))
+        img = np.zeros(nc, np.int64) if image is None else np.asarray(image, np.int64).copy()
+        normal = np.zeros((nc, 2))
+        gap = np.zeros(nc)
+        point = np.zeros((nc, 2))
+        for k in range(nc):
+            i, j = int(a[k]), int(b[k])
+            if i >= 0 and j >= 0:
+                dx = x[j] - x[i]
+                if periodic_x and image is None:
+                    img[k] = -int(np.floor(dx / width + 0.5))
+                dx += img[k] * width
+                dist = np.hypot(dx, y[j] - y[i])
+                normal[k] = dx / dist, (y[j] - y[i]) / dist
+                gap[k] = dist - r[i] - r[j]
+                point[k] = (x[i], y[i]) + (r[i] + 0.5 * gap[k]) * normal[k]
+            else:
+                disk = j if i < 0 else i
+                wall = i if i < 0 else j
+                if (wall, disk == j) not in ((BOTTOM, True), (TOP, False), (LEFT, True),
+                                             (RIGHT, False)):
+                    raise InputError("from_arrays", "a, b", f"contact {k}: BOTTOM and LEFT "
+                                     "must be body a, TOP and RIGHT body b", got=(i, j))
+                horizontal = wall in (BOTTOM, TOP)
+                normal[k] = (0.0, 1.0) if horizontal else (1.0, 0.0)
+                sign = -1.0 if wall in (BOTTOM, LEFT) else 1.0
+                point[k] = (x[disk], y[disk]) + sign * r[disk] * normal[k]
+                surface = {BOTTOM: y_bottom, TOP: y_top, LEFT: 0.0, RIGHT: width}[wall]
+                coord = point[k, 1] if horizontal else point[k, 0]
+                gap[k] = (coord - surface) * (-sign) if np.isfinite(surface) else 0.0
+        zeros = np.zeros(nc)
+        p = cls(x=x, y=y, r=r, width=float(width), periodic_x=bool(periodic_x),
+                y_bottom=float(y_bottom), y_top=float(y_top), top_force=float(top_force),
+                gravity=float(gravity), density=density, mu=float(mu), plate_mu=float(plate_mu),
+                a=a, b=b, normal=normal, point=point, image=img, gap=gap,
+                fn=zeros.copy() if fn is None else np.asarray(fn, float).copy(),
+                ft=zeros.copy() if ft is None else np.asarray(ft, float).copy(),
+                scene_name=scene_name)
+        return check_packing(p, "from_arrays")
+
+    @classmethod
+    def load(cls, path) -> "Packing":
+        """Read a packing file (validated; see :mod:`forcespace.packing_file`)."""
+        from .packing_file import read_packing
+        return read_packing(path)
+
+    def save(self, path) -> None:
+        """Write this packing to ``path`` (HDF5, atomically)."""
+        from .packing_file import write_packing
+        write_packing(self, path)
+
+    def plot(self, ax=None, values=None, signed: bool = False, **kw):
+        """Draw the disks and the force network on ``ax`` (see
+        :func:`forcespace.draw.plot_packing`); returns the Axes."""
+        from .draw import plot_packing
+        return plot_packing(self, ax, values=values, signed=signed, **kw)
+
+    def __repr__(self) -> str:
+        walls = "periodic x" if self.periodic_x else "side walls"
+        return (f"Packing(n_disks={self.n_disks}, n_contacts={self.n_contacts}, mu={self.mu:g}, "
+                f"width={self.width:g} R, {walls}, scene={self.scene_name!r})")
+
     # ---- derived quantities -------------------------------------------------
     @property
     def n_disks(self) -> int:

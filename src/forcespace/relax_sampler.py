@@ -228,3 +228,28 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
             "projected_convention": "samples whose relaxation stalled (non-static fixed "
                                     "point) and were finished by the exact projection onto S",
             "params": params}
+
+
+class RelaxWalk:
+    """The paper's perturb-and-relax walk through S (compute object; see :func:`sample`).
+
+    ``RelaxWalk(n=100, seed=1).run(problem)`` returns the samples as an
+    :class:`~forcespace.ensemble_file.Ensemble` in memory; ``output=PATH``
+    writes (and resumes) an ensemble file instead.
+    """
+
+    def __init__(self, n: int = 100, seed: int = 0, tol: float = DEFAULT_TOL,
+                 progress: bool = False):
+        check_options(n, tol)
+        self.n, self.seed, self.tol, self.progress = n, seed, tol, progress
+        self.summary: dict = {}
+
+    def run(self, problem: StaticsProblem, output=None) -> "ef.Ensemble":
+        from .h5io import MemoryFile
+        out = MemoryFile("<relax>") if output is None else output
+        self.summary = sample(problem, self.n, out, seed=self.seed, tol=self.tol,
+                              progress=self.progress)
+        return ef.read(out)
+
+    def __repr__(self) -> str:
+        return f"RelaxWalk(n={self.n}, seed={self.seed}, tol={self.tol:g})"

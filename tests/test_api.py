@@ -1,0 +1,90 @@
+"""The Python API: the README example runs as written; compute objects and results."""
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import forcespace as fs
+
+ROOT = Path(__file__).parents[1]
+
+
+def test_readme_example_runs_as_written(tmp_path):
+    text = (ROOT / "README.md").read_text()
+    code = re.search(r"## Python API\s+```python\n(.*?)```", text, re.S).group(1)
+    shutil.copytree(ROOT / "inputs", tmp_path / "inputs")
+    r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    dim, eta = re.search(r"dim S = (\d+), eta = (\S+)", r.stdout).groups()
+    assert int(dim) > 0 and float(eta) > 1e-4          # an indeterminate slice, sampled
+    assert (tmp_path / "quick_sample.png").stat().st_size > 10_000
+
+
+def test_help_lists_the_public_api():
+    import pydoc
+    text = pydoc.render_doc(fs, renderer=pydoc.plaintext)
+    for name in ("jam", "Packing", "slice_problem", "ForceSpace", "HitAndRun", "RelaxWalk",
+                 "Ensemble", "eta", "plot_difference"):
+        assert name in text
+    for name in fs.__all__:
+        assert getattr(fs, name) is not None
+
+
+def test_packing_from_arrays_matches_the_hand_built_geometry_and_round_trips(tmp_path):
+    from ensemble_cases import pyramid
+    p, _ = pyramid(3, 0.6)
+    q = fs.Packing.from_arrays(p.x, p.y, p.r, p.a, p.b, p.fn, p.ft, y_bottom=0.0,
+                               gravity=p.gravity, mu=p.mu, plate_mu=p.plate_mu)
+    assert np.allclose(q.normal, p.normal, atol=1e-15) and np.allclose(q.point, p.point)
+    assert np.abs(q.gap).max() < 1e-12 and q.equilibrium_residual() < 1e-12
+    q.save(tmp_path / "q.h5")
+    r = fs.Packing.load(tmp_path / "q.h5")
+    assert np.array_equal(r.fn, q.fn) and np.array_equal(r.normal, q.normal)
+    assert len(repr(r)) < 200
+    with pytest.raises(fs.InputError, match="TOP and RIGHT"):
+        fs.Packing.from_arrays([0.0], [1.0], [1.0], [0], [-1])   # BOTTOM must be body a
+
+
+def test_force_space_and_both_samplers_in_memory(tmp_path):
+    from ensemble_cases import groove_interval, grooves
+    thetas, mu = [np.pi / 6, np.pi / 5], 0.3
+    p, prob = grooves(thetas, mu)
+    S = fs.ForceSpace(prob)
+    assert "not computed" in repr(S)
+    with pytest.raises(fs.InputError, match="compute"):
+        S.dim
+    S.compute()
+    assert S.dim == 2 and S.bounded and len(S.domains) == 2
+    assert all(d.elementary for d in S.domains)
+    for k, th in enumerate(thetas):       # ft range of each groove by hand
+        lo, hi = groove_interval(th, mu)
+        assert S.ft_range[2 * k] == pytest.approx([lo, hi], rel=1e-7)
+    assert S.contains(S.centre) and S.distance(S.centre).absolute < 1e-12
+    for sampler in (fs.HitAndRun(n=40, seed=2), fs.RelaxWalk(n=20, seed=2)):
+        ens = sampler.run(prob)
+        assert isinstance(ens, fs.Ensemble) and ens.forces.shape == (sampler.n, 4, 2)
+        assert max(prob.violation(x) for x in ens.samples) <= 1e-9
+        assert ens.eta > 0 and "n_samples" in repr(ens)
+        assert not list(tmp_path.iterdir())   # nothing written anywhere
+    ens = fs.HitAndRun(n=10, seed=2).run(prob, output=tmp_path / "h.h5")
+    assert (tmp_path / "h.h5").is_file() and ens.n_samples == 10
+
+
+def test_plots_draw_on_the_callers_axes():
+    from matplotlib.figure import Figure
+    from ensemble_cases import grooves
+    p, prob = grooves([np.pi / 6, np.pi / 5], 0.3)
+    S = fs.ForceSpace(prob).compute()
+    ax = Figure().add_subplot()
+    assert p.plot(ax) is ax and S.plot(p, ax=ax) is ax
+    x1, x2 = S.fn_range[:, 0], S.fn_range[:, 1]
+    a = np.zeros(prob.n_columns)
+    b = np.zeros(prob.n_columns)
+    a[0::2], b[0::2] = x1, x2
+    assert fs.plot_difference(p, prob, a, b, domains=S.domains, ax=ax) is ax
+    assert len(ax.collections) > 3
