@@ -125,7 +125,8 @@ def test_relax_on_a_problem_without_unknown_contacts_is_refused(tmp_path):
 
 
 def test_ensemble_of_a_point_like_S_reports_no_ratio_of_round_off(tmp_path):
-    from forcespace.cli_ensemble import ensemble_summary
+    def ensemble_summary(path):
+        return ef.read(path).summary()
     _, prob = grooves(THETAS, 0.0)                  # frictionless grooves: dim S = 0
     rs.sample(prob, 10, tmp_path / "r.h5", seed=1)
     out = ensemble_summary(tmp_path / "r.h5")

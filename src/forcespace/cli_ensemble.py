@@ -4,41 +4,14 @@ from __future__ import annotations
 import sys
 import time
 
-import numpy as np
-
-from .errors import InputError
-
-SPREAD_FLOOR = 1e-8   # rms spread of samples per contact, in <Fn>, below which S is a point
-
-
-def _scene_slice_height(packing):
-    """``[analysis] slice_height`` of the packing's scene, or None (absent, 0 or unreadable)."""
-    from .scene import parse_scene_text
-    if not (packing.scene_text or "").strip():
-        return None
-    try:
-        h = parse_scene_text(packing.scene_text)["analysis.slice_height"]
-    except InputError:  # a scene text that does not validate just means "no default"
-        return None
-    return h if h > 0 else None
-
-
 def load_problem(path, slice_height=None, full=False, gap_tol=float("inf"), mu=None):
-    """Read a packing file and build the requested statics problem (``mu``: disk-disk
-    friction instead of the packing's own)."""
+    """Read a packing file and build the problem the options ask for
+    (:func:`forcespace.statics.problem_for`)."""
     from .packing_file import read_packing
-    from .statics import full_problem, slice_problem
+    from .statics import problem_for
 
     packing = read_packing(path)
-    if full and slice_height is not None:
-        raise InputError("command line", "--slice/--full", "give one of them, not both")
-    if not full and slice_height is None:
-        slice_height = _scene_slice_height(packing)
-    if full or slice_height is None:
-        problem = full_problem(packing, gap_tol=gap_tol, source=str(path), mu=mu)
-    else:
-        problem = slice_problem(packing, slice_height, gap_tol=gap_tol, source=str(path), mu=mu)
-    return packing, problem
+    return packing, problem_for(packing, slice_height, full, gap_tol, mu, source=str(path))
 
 
 def _add_problem_args(p):
@@ -111,47 +84,11 @@ def cmd_sample(args) -> int:
     return 0
 
 
-def ensemble_summary(path) -> dict:
-    from . import ensemble_file as ef
-    from . import measures
-
-    ens = ef.read(path)
-    out = {"ensemble": str(path), "sampler": ens.sampler, "n_samples": ens.n_samples,
-           "packing_file": ens.attrs.get("packing_file"), "scene_name": ens.attrs.get("scene_name"),
-           "problem_kind": ens.attrs.get("problem_kind"),
-           "mu_override": ens.attrs.get("mu_override"),
-           "slice_height": ens.attrs.get("slice_height"),
-           "n_contacts": int(ens.contacts.size), "force_scale": ens.force_scale,
-           "max_violation": float(ens.violations.max(initial=0.0)),
-           "max_violation_convention": "max over samples of the largest equilibrium/Coulomb "
-                                       "violation divided by <Fn> (jammed mean normal force)",
-           "tolerance": ens.attrs.get("tolerance_description"),
-           "forcespace_version": ens.attrs.get("forcespace_version")}
-    if ens.n_samples:
-        out["eta"] = measures.eta(ens.samples)
-        ell, l0, lbar = measures.distance_from_centre(ens.samples, ens.x_jammed)
-        out["jammed_distance_from_centre"] = l0
-        out["mean_sample_distance_from_centre"] = lbar
-        rms_spread = lbar / (ens.force_scale * np.sqrt(max(ens.contacts.size, 1)))
-        if rms_spread > SPREAD_FLOOR:
-            out["jammed_distance_over_mean"] = l0 / lbar
-        else:   # a ratio of two round-off numbers means nothing
-            out["jammed_distance_over_mean"] = None
-            out["jammed_distance_over_mean_reason"] = (
-                f"samples differ only at the solver's accuracy (rms spread "
-                f"{rms_spread:.1e} <Fn> <= {SPREAD_FLOOR:g}): S is numerically a point")
-    else:
-        out["eta"] = None
-    if ens.sampler == "hit-and-run" and ens.n_samples >= 8:
-        from .hit_and_run import diagnostics
-        out.update(diagnostics(ens.samples, ens.chains))
-    return out
-
-
 def cmd_ensemble(args) -> int:
     from .cli import print_result
 
-    out = ensemble_summary(args.ensemble)
+    from . import ensemble_file as ef
+    out = ef.read(args.ensemble).summary()
     print_result(out, args.json)
     return 0
 

@@ -37,6 +37,7 @@ from .h5io import atomic_h5, atomic_replace_copy, exists, open_h5, write_dataset
 from .statics import StaticsProblem
 
 KIND = "ensemble"
+SPREAD_FLOOR = 1e-8   # rms spread of samples per contact, in <Fn>, below which S is a point
 
 
 def fingerprint(problem: StaticsProblem, sampler: str, params: dict) -> str:
@@ -101,6 +102,40 @@ class Ensemble:
         kw.setdefault("title", f"{self.sampler} sample {sample % self.n_samples} of "
                                f"{self.n_samples}")
         return packing.plot(ax, values=fn, **kw)
+
+    def summary(self) -> dict:
+        """The numbers ``forcespace ensemble`` prints: provenance, eta, Fig. 3
+        distances (no ratio when the samples differ only at the solver's
+        accuracy) and, for hit-and-run, R-hat/ESS diagnostics."""
+        a = self.attrs
+        out = {"ensemble": self.path, "sampler": self.sampler, "n_samples": self.n_samples,
+               "packing_file": a.get("packing_file"), "scene_name": a.get("scene_name"),
+               "problem_kind": a.get("problem_kind"), "mu_override": a.get("mu_override"),
+               "slice_height": a.get("slice_height"),
+               "n_contacts": int(self.contacts.size), "force_scale": self.force_scale,
+               "max_violation": float(self.violations.max(initial=0.0)),
+               "max_violation_convention": "max over samples of the largest equilibrium/"
+                                           "Coulomb violation divided by <Fn> (jammed mean "
+                                           "normal force)",
+               "tolerance": a.get("tolerance_description"),
+               "forcespace_version": a.get("forcespace_version"), "eta": None}
+        if self.n_samples:
+            out["eta"] = self.eta
+            _, l0, lbar = self.distances_from_centre()
+            out["jammed_distance_from_centre"] = l0
+            out["mean_sample_distance_from_centre"] = lbar
+            rms_spread = lbar / (self.force_scale * np.sqrt(max(self.contacts.size, 1)))
+            if rms_spread > SPREAD_FLOOR:
+                out["jammed_distance_over_mean"] = l0 / lbar
+            else:   # a ratio of two round-off numbers means nothing
+                out["jammed_distance_over_mean"] = None
+                out["jammed_distance_over_mean_reason"] = (
+                    f"samples differ only at the solver's accuracy (rms spread "
+                    f"{rms_spread:.1e} <Fn> <= {SPREAD_FLOOR:g}): S is numerically a point")
+        if self.sampler == "hit-and-run" and self.n_samples >= 8:
+            from .hit_and_run import diagnostics
+            out.update(diagnostics(self.samples, self.chains))
+        return out
 
     def __repr__(self) -> str:
         where = f", path={self.path!r}" if self.path and not self.path.startswith("<") else ""

@@ -145,6 +145,19 @@ class Packing:
         return (f"Packing(n_disks={self.n_disks}, n_contacts={self.n_contacts}, mu={self.mu:g}, "
                 f"width={self.width:g} R, {walls}, scene={self.scene_name!r})")
 
+    @property
+    def scene_slice_height(self) -> float | None:
+        """``[analysis] slice_height`` of the scene that made this packing [R], or None
+        (absent, 0, or no readable scene stored)."""
+        from .scene import parse_scene_text
+        if not (self.scene_text or "").strip():
+            return None
+        try:
+            h = parse_scene_text(self.scene_text)["analysis.slice_height"]
+        except InputError:  # a scene text that does not validate just means "no default"
+            return None
+        return h if h > 0 else None
+
     # ---- derived quantities -------------------------------------------------
     @property
     def n_disks(self) -> int:

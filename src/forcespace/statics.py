@@ -83,6 +83,13 @@ class StaticsProblem:
     n_supports: int = 0        # number of fixed kernel bodies after the disks (walls, support disks)
     source: str = ""
     meta: dict = field(default_factory=dict)
+    _inequalities: tuple | None = field(default=None, init=False, repr=False, compare=False)
+
+    def __repr__(self) -> str:
+        h = "" if self.height is None else f", height={self.height:g} R"
+        return (f"StaticsProblem({self.kind}{h}: {self.n_interior} interior disks, "
+                f"{self.n_contacts} unknown contacts, {self.load_contacts.size} load contacts, "
+                f"<Fn>={self.force_scale:.3g} F0)")
 
     # ---- sizes ------------------------------------------------------------
     @property
@@ -149,8 +156,14 @@ class StaticsProblem:
         """Inequalities ``G @ x <= 0``: G (p, 2m) CSR and their owners.
 
         Returns (G, contact (p,), kind (p,)) with kind 0: ``ft - mu fn <= 0``,
-        1: ``-ft - mu fn <= 0`` (mu > 0), 2: ``-fn <= 0`` (mu = 0).
+        1: ``-ft - mu fn <= 0`` (mu > 0), 2: ``-fn <= 0`` (mu = 0). Built once
+        per problem (mu and the contacts do not change).
         """
+        if self._inequalities is None:
+            self._inequalities = self._build_inequalities()
+        return self._inequalities
+
+    def _build_inequalities(self):
         rows, cols, vals, owner, kind = [], [], [], [], []
         p = 0
         for j, mj in enumerate(self.mu):
@@ -349,6 +362,21 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
               "scene_name": p.scene_name})
 
 
+def problem_for(packing: Packing, slice_height: float | None = None, full: bool = False,
+                gap_tol: float = np.inf, mu: float | None = None,
+                source: str = "") -> StaticsProblem:
+    """The problem a command asks for: the slice of ``slice_height`` [R], the whole
+    packing with ``full``, else the slice height of the packing's scene, else the
+    whole packing. ``mu``: disk-disk friction instead of the packing's own."""
+    if full and slice_height is not None:
+        raise InputError("command line", "--slice/--full", "give one of them, not both")
+    if not full and slice_height is None:
+        slice_height = packing.scene_slice_height
+    if full or slice_height is None:
+        return full_problem(packing, gap_tol=gap_tol, source=source, mu=mu)
+    return slice_problem(packing, slice_height, gap_tol=gap_tol, source=source, mu=mu)
+
+
 def slice_problem(packing: Packing, height: float, gap_tol: float = np.inf,
                   source: str = "", mu: float | None = None) -> StaticsProblem:
     """The paper's slice: disks with |y - y_c| <= height/2 (see module docstring)."""
@@ -389,4 +417,4 @@ def plate_problem(packing: Packing, gap_tol: float = np.inf, source: str = "",
 
 
 __all__ = ["StaticsProblem", "slice_problem", "full_problem", "plate_problem", "build_problem",
-           "TOP"]
+           "problem_for", "TOP"]
