@@ -186,3 +186,20 @@ def test_drawing_does_not_switch_the_callers_matplotlib_backend(tmp_path):
     draw_packing(read_packing(PACK), tmp_path / "f.png")
     assert matplotlib.get_backend() == before
     assert (tmp_path / "f.png").stat().st_size > 0 and (tmp_path / "f.pdf").stat().st_size > 0
+
+
+def test_files_record_provenance_and_a_newer_format_is_refused(tmp_path, capsys):
+    from forcespace.h5io import FORMAT_VERSION
+    from forcespace.packing_file import read_packing
+    from forcespace.scene import SCHEMA_VERSION
+    p = read_packing(PACK)                 # a format-1 file (no version attribute) still reads
+    out = tmp_path / "p.h5"
+    p.save(out)
+    with h5py.File(out, "r") as f:
+        assert f.attrs["format_version"] == FORMAT_VERSION
+        assert f.attrs["scene_schema_version"] == SCHEMA_VERSION
+        assert str(f.attrs["code_version"]).startswith(str(f.attrs["forcespace_version"]))
+    with h5py.File(out, "r+") as f:
+        f.attrs["format_version"] = FORMAT_VERSION + 1
+    assert main(["info", str(out)]) == 2
+    assert "newer forcespace" in one_line(capsys)

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import functools
 import io
 import os
+import subprocess
 import tempfile
 from pathlib import Path
 
@@ -48,6 +50,30 @@ def atomic_path(path):
         raise
 
 
+# Version of the file layouts (packing, ensemble, soft network). Bump it when a reader
+# of this version could misread a file written by the next one; files without the
+# attribute are version 1 (before it existed) and are read as such.
+FORMAT_VERSION = 2
+
+
+@functools.lru_cache(maxsize=1)
+def code_version() -> str:
+    """The package version plus the git commit of the source tree when it is a git
+    checkout (``0.1.0+g1a2b3c4``, ``-dirty`` if modified): two different engines are
+    never stamped alike."""
+    here = Path(__file__).resolve().parent
+    try:
+        commit = subprocess.run(["git", "-C", str(here), "rev-parse", "--short=12", "HEAD"],
+                                capture_output=True, text=True, timeout=10)
+        if commit.returncode != 0:
+            return __version__
+        dirty = subprocess.run(["git", "-C", str(here), "status", "--porcelain", "--", "."],
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return f"{__version__}+g{commit.stdout.strip()}" + ("-dirty" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return __version__
+
+
 class MemoryFile:
     """An HDF5 file held in memory: pass it wherever forcespace takes an output or
     input file path (e.g. a sampler's ``out``) to keep the result off the disk."""
@@ -76,8 +102,9 @@ def exists(path) -> bool:
 def atomic_h5(path, mode_attrs: dict | None = None):
     """Open a new HDF5 file for writing; it reaches ``path`` atomically on success.
 
-    Yields an open ``h5py.File``. Root attributes ``forcespace_version`` and
-    ``file_kind`` (from ``mode_attrs``) are set. The file is built in memory
+    Yields an open ``h5py.File``. Root attributes ``forcespace_version``,
+    ``code_version`` (with the git commit), ``format_version`` and ``file_kind``
+    (from ``mode_attrs``) are set. The file is built in memory
     and written with plain file I/O through :func:`atomic_path`: a failed
     write (full disk, quota) is one clean error, where HDF5 writing to the
     disk itself left an unclosable file id that crashed the interpreter.
@@ -85,6 +112,8 @@ def atomic_h5(path, mode_attrs: dict | None = None):
     buf = io.BytesIO()
     with h5py.File(buf, "w") as f:
         f.attrs["forcespace_version"] = __version__
+        f.attrs["code_version"] = code_version()
+        f.attrs["format_version"] = FORMAT_VERSION
         for k, v in (mode_attrs or {}).items():
             f.attrs[k] = v
         yield f
@@ -138,6 +167,12 @@ def open_h5(path, kind: str | None = None):
         f = h5py.File(source, "r")
     except OSError as exc:
         raise InputError(p, "(file)", f"is not a readable HDF5 file ({exc})") from None
+    version = int(f.attrs.get("format_version", 1))
+    if version > FORMAT_VERSION:
+        f.close()
+        raise InputError(p, "format_version", f"was written by a newer forcespace (file format "
+                         f"{version}); this one reads formats up to {FORMAT_VERSION}: upgrade "
+                         "forcespace", got=version)
     if kind is not None:
         got = f.attrs.get("file_kind")
         if got != kind:

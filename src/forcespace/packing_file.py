@@ -2,7 +2,8 @@
 
 Layout::
 
-    /            attrs: file_kind="packing", forcespace_version, mu, plate_mu, seed,
+    /            attrs: file_kind="packing", forcespace_version, code_version (with the
+                        git commit), format_version, scene_schema_version, mu, plate_mu, seed,
                         scene_name, scene_text (the full TOML), units, conventions
     /disks       (n, 3) columns x, y, r                         [R]
     /disk_density (n,)  per-disk density, only when not uniform  [rho]
@@ -25,6 +26,7 @@ import json
 import numpy as np
 
 from .errors import InputError
+from .scene import SCHEMA_VERSION
 from .h5io import atomic_h5, open_h5, write_dataset
 from .packing import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES, Packing, check_packing
 
@@ -39,7 +41,8 @@ def write_packing(packing: Packing, path, kind: str = "packing", extra_attrs: di
     """Write ``packing`` to ``path`` atomically (temp file, then rename)."""
     p = packing
     with atomic_h5(path, {"file_kind": kind}) as f:
-        f.attrs.update({"mu": p.mu, "plate_mu": p.plate_mu, "seed": p.seed,
+        f.attrs.update({"scene_schema_version": SCHEMA_VERSION,
+                        "mu": p.mu, "plate_mu": p.plate_mu, "seed": p.seed,
                         "scene_name": p.scene_name, "scene_text": p.scene_text,
                         "units": UNITS, "conventions": CONVENTIONS})
         for k, v in (extra_attrs or {}).items():

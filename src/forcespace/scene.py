@@ -94,6 +94,11 @@ def _bottom_mode(v, _):
     return None if v in ("fixed", "none") else 'must be "fixed" or "none"'
 
 
+# Bump when a default or the meaning of a key changes, so that a stored scene is never
+# re-read with other defaults silently (packing files record the version they used).
+# 2: bounded ranges for every number, disks.density_ratio, dt in the unit of the load.
+SCHEMA_VERSION = 2
+
 SCHEMA: dict[str, Key] = {
     "scene.name": Key(str, "", None, "short name of the scene"),
     "scene.description": Key(str, "", None, "free text"),
@@ -194,7 +199,8 @@ class Scene:
 
         This is what packing files store, so a packing can be rebuilt exactly.
         """
-        lines = [f"# effective scene resolved from {self.source}"]
+        lines = [f"# effective scene resolved from {self.source} (scene schema version "
+                 f"{SCHEMA_VERSION})"]
         section = None
         for key, value in self.values.items():
             sec, name = key.split(".")
