@@ -88,3 +88,16 @@ def test_plots_draw_on_the_callers_axes():
     a[0::2], b[0::2] = x1, x2
     assert fs.plot_difference(p, prob, a, b, domains=S.domains, ax=ax) is ax
     assert len(ax.collections) > 3
+
+
+def test_scale_box_keeps_the_box_shape(tmp_path, capsys):
+    from forcespace.cli import main
+    sc = fs.load_scene(ROOT / "inputs" / "paper.toml")
+    big, what = sc.scaled_to(800)
+    assert big["disks.n"] == 800
+    assert big["box.width"] == pytest.approx(2 * sc["box.width"])
+    assert big["analysis.slice_height"] == pytest.approx(2 * sc["analysis.slice_height"])
+    assert "box.width 42 -> 84 R" in what
+    assert main(["pack", str(ROOT / "inputs" / "quick.toml"), "--scale-box",
+                 "-o", str(tmp_path / "p.h5")]) == 2
+    assert "--scale-box" in capsys.readouterr().err

@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .cli import print_result
+from .errors import InputError
 
 
 def register(sub):
@@ -16,6 +17,9 @@ def register(sub):
     p.add_argument("--mu", type=float, help="override physics.mu")
     p.add_argument("--seed", type=int, help="override scene.seed")
     p.add_argument("--n", type=int, help="override disks.n")
+    p.add_argument("--scale-box", action="store_true",
+                   help="with --n: scale box.width and the slice height by sqrt(n / n_scene), "
+                        "so the box keeps its shape (without it a larger n makes a taller column)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_pack)
 
@@ -37,13 +41,21 @@ def cmd_pack(args) -> int:
     from .scene import load_scene
 
     check_output_file(args.output, inputs=[args.scene])
-    scene = load_scene(args.scene).with_overrides(
+    scene = load_scene(args.scene)
+    scaled = None
+    if args.scale_box:
+        if args.n is None:
+            raise InputError("command line", "--scale-box", "needs --n (the new number of disks)")
+        scene, scaled = scene.scaled_to(args.n)
+    scene = scene.with_overrides(
         **{"physics.mu": args.mu, "scene.seed": args.seed, "disks.n": args.n})
     checkpoint = Path(str(args.output) + ".checkpoint.npz")
     with output_lock(args.output):
         if checkpoint.exists() and not args.quiet:
             print(f"resuming from {checkpoint}")
         packing = build_packing(scene, show_progress=not args.quiet, checkpoint=checkpoint)
+        if scaled:
+            packing.meta["scaled_box"] = scaled
         write_packing(packing, args.output)
     s = packing.summary()
     print(f"{Path(args.output)}: {s['n_disks']} disks, {s['n_contacts']} contacts, "

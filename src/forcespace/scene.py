@@ -216,6 +216,20 @@ class Scene:
             lines.append(f"{name} = {text}")
         return "\n".join(lines) + "\n"
 
+    def scaled_to(self, n: int) -> tuple["Scene", str]:
+        """The scene with ``n`` disks in a box of the same shape: width and slice
+        height scale by sqrt(n / n0) (the packing's height follows by itself).
+        Returns (scene, one-line description of what was scaled)."""
+        n0 = self["disks.n"]
+        f = math.sqrt(n / n0)
+        w0, h0 = self["box.width"], self["analysis.slice_height"]
+        sc = self.with_overrides(**{"disks.n": n, "box.width": w0 * f,
+                                    "analysis.slice_height": h0 * f})
+        what = (f"n {n0} -> {n}: box.width {w0:g} -> {sc['box.width']:.6g} R, "
+                f"analysis.slice_height {h0:g} -> {sc['analysis.slice_height']:.6g} R "
+                f"(x sqrt({n}/{n0}))")
+        return sc, what
+
     def with_overrides(self, **overrides) -> "Scene":
         """A re-validated copy with ``{"physics.mu": 0.5, ...}`` replaced (None = keep)."""
         data = {k: v for k, v in overrides.items() if v is not None}
