@@ -13,6 +13,7 @@ from forcespace_adapters import liggghts as L
 from forcespace_adapters.distance import compare, make_problem
 from forcespace_adapters.problem import soft_problem
 from forcespace_adapters.toy import two_row_packing
+from paths import QUICK
 
 pytestmark = pytest.mark.skipif(shutil.which("liggghts") is None,
                                 reason="LIGGGHTS binary missing (apt-get install liggghts)")
@@ -22,7 +23,7 @@ pytestmark = pytest.mark.skipif(shutil.which("liggghts") is None,
 def packing():
     from forcespace.jamming import build_packing
     from forcespace.scene import load_scene
-    scene = load_scene("inputs/quick.toml").with_overrides(**{"disks.n": 20, "physics.mu": 0.1})
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 20, "physics.mu": 0.1})
     return build_packing(scene, show_progress=False)
 
 

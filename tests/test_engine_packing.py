@@ -6,11 +6,12 @@ from forcespace.jamming import build_packing, compress, make_bodies, static_solv
 from forcespace.packing import BOTTOM, LEFT, RIGHT
 from forcespace.packing_file import read_packing, write_packing
 from forcespace.scene import load_scene, validate
+from paths import QUICK
 
 
 @pytest.fixture(scope="module")
 def quick():
-    return build_packing(load_scene("inputs/quick.toml"), show_progress=False)
+    return build_packing(load_scene(QUICK), show_progress=False)
 
 
 def test_quick_frictionless_packing_is_jammed_isostatic_and_in_equilibrium(quick):
@@ -43,12 +44,15 @@ def test_packing_file_round_trip_is_exact_and_self_describing(quick, tmp_path):
         assert "[physics]" in f.attrs["scene_text"]
         assert list(f["forces"].attrs["columns"]) == ["fn", "ft"]
         assert f["disks"].attrs["units"] == "R"
-    assert validate({}, "x").values != {}  # defaults resolve
-    assert load_scene("inputs/quick.toml").to_toml() == back.scene_text
+    from forcespace.scene import SCHEMA
+    defaults = validate({}, "x").values        # an empty scene is the schema's defaults
+    assert defaults == {k: (float(v.default) if v.type is float else v.default)
+                        for k, v in SCHEMA.items()}
+    assert load_scene(QUICK).to_toml() == back.scene_text
 
 
 def test_same_seed_same_packing_other_seed_other_packing():
-    scene = load_scene("inputs/quick.toml").with_overrides(**{"disks.n": 14})
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
     p1 = build_packing(scene, show_progress=False)
     p2 = build_packing(scene, show_progress=False)
     np.testing.assert_array_equal(p1.x, p2.x)
@@ -120,7 +124,7 @@ def test_frictionless_packing_reports_zero_tangential_updates(quick):
 
 def test_interrupted_compression_resumes_bit_identically(tmp_path):
     from forcespace.errors import NumericalError
-    scene = load_scene("inputs/quick.toml").with_overrides(**{"disks.n": 14})
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
     fresh = build_packing(scene, show_progress=False)
     ck = tmp_path / "p.h5.checkpoint.npz"
     with pytest.raises(NumericalError, match="resumes from"):
@@ -137,7 +141,7 @@ def test_interrupted_compression_resumes_bit_identically(tmp_path):
 
 def test_checkpoint_of_another_scene_is_refused(tmp_path):
     from forcespace.errors import InputError, NumericalError
-    scene = load_scene("inputs/quick.toml").with_overrides(**{"disks.n": 14})
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
     ck = tmp_path / "c.npz"
     with pytest.raises(NumericalError):
         build_packing(scene.with_overrides(**{"jamming.max_steps": 200}), show_progress=False,
@@ -156,7 +160,7 @@ def test_checkpoint_of_another_scene_is_refused(tmp_path):
      "physics.plate_mu": 0.3, "plates.top_force": 1000.0},
 ])
 def test_hard_cases_jam_to_a_finite_static_state(overrides):
-    scene = load_scene("inputs/quick.toml").with_overrides(**overrides)
+    scene = load_scene(QUICK).with_overrides(**overrides)
     p = build_packing(scene, show_progress=False)
     s = p.summary()
     assert np.isfinite(p.fn).all() and np.isfinite(p.ft).all()
