@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from forcespace import __version__
-from forcespace.contacts import N_WALL_SLOTS
+from forcespace.contacts import N_WALL_SLOTS, SLOT_TOP, kernel_body_index
 from forcespace.draw import save_figure
 from forcespace.jamming import build_packing, make_bodies, static_solve
 from forcespace.nlgs import add_contact_velocities, effective_masses, nlgs_solve
@@ -61,12 +61,11 @@ def kernel_arrays(p: Packing, rotation: bool):
     """Statics kernel arrays of a packing (walls fixed, top plate movable)."""
     n = p.n_disks
     nb = n + N_WALL_SLOTS
-    a = np.where(p.a >= 0, p.a, n - p.a - 1)
-    b = np.where(p.b >= 0, p.b, n - p.b - 1)
+    a, b = kernel_body_index(p.a, n), kernel_body_index(p.b, n)
     inv_m = np.zeros(nb)
     inv_m[:n] = 1.0 / p.mass
     inv_my = inv_m.copy()
-    inv_my[n + 1] = 0.1
+    inv_my[n + SLOT_TOP] = 0.1
     inv_i = np.zeros(nb)
     if rotation:
         inv_i[:n] = 1.0 / (0.5 * p.mass * p.r**2)

@@ -64,3 +64,14 @@ def test_cell_list_finds_exactly_the_pairs_of_an_all_pairs_search(seed):
     assert np.allclose((d * floats[disk_pairs, :2]).sum(1), np.linalg.norm(d, axis=1))
     keys = ints[:, 0] * (n + N_WALL_SLOTS) + ints[:, 1]
     assert (np.diff(keys) > 0).all()  # sorted and unique
+
+
+def test_one_mapping_between_packing_wall_codes_and_kernel_slots():
+    from forcespace.contacts import (SLOT_BOTTOM, SLOT_LEFT, SLOT_RIGHT, SLOT_TOP,
+                                     kernel_body_index, packing_body_code)
+    from forcespace.packing import BOTTOM, LEFT, RIGHT, TOP
+    n = 7
+    codes = np.array([0, 6, BOTTOM, TOP, LEFT, RIGHT])
+    idx = kernel_body_index(codes, n)
+    assert idx.tolist() == [0, 6, n + SLOT_BOTTOM, n + SLOT_TOP, n + SLOT_LEFT, n + SLOT_RIGHT]
+    assert packing_body_code(idx, n).tolist() == codes.tolist()

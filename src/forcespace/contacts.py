@@ -16,6 +16,19 @@ N_WALL_SLOTS = 4
 SLOT_BOTTOM, SLOT_TOP, SLOT_LEFT, SLOT_RIGHT = 0, 1, 2, 3
 
 
+def kernel_body_index(body, n):
+    """Packing body indices (disks >= 0, wall codes -1 bottom .. -4 right) -> kernel
+    body indices (disks, then wall slot n + SLOT_*): wall code c sits at n - c - 1."""
+    body = np.asarray(body, np.int64)
+    return np.where(body >= 0, body, n - body - 1)
+
+
+def packing_body_code(index, n):
+    """Kernel body indices -> packing body indices (the inverse of kernel_body_index)."""
+    index = np.asarray(index, np.int64)
+    return np.where(index < n, index, n - index - 1)
+
+
 @njit(cache=True)
 def detect_contacts(x, y, r, n, width, periodic, has_bottom, has_top, has_sides, margin):
     """All pairs (disk-disk and disk-wall) whose gap is below ``margin``.

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .contacts import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, detect_contacts
+from .contacts import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, detect_contacts, packing_body_code
 from .dynamics import contact_arrays, run_steps, warm_start
 from .errors import InputError, NumericalError
 from .h5io import atomic_path
@@ -387,9 +387,7 @@ def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True):
 def _packing_view(scene: Scene, bodies: Bodies, a, b, nx, ny, gap, image):
     """A function (rn, rt) -> Packing for the frozen configuration and contacts."""
     n = bodies.n
-    code = np.array([-1, -2, -3, -4])
-    pa = np.where(a < n, a, code[np.clip(a - n, 0, 3)])
-    pb = np.where(b < n, b, code[np.clip(b - n, 0, 3)])
+    pa, pb = packing_body_code(a, n), packing_body_code(b, n)
     x, y, r = bodies.x[:n].copy(), bodies.y[:n].copy(), bodies.r
     normal = np.column_stack([nx, ny])
     # contact point: on a's surface pushed half the gap toward b; walls: on the disk
