@@ -20,24 +20,8 @@ def groove_interval(theta, mu, W=1.0):
 
 
 def _packing(x, y, r, a, b, fn, ft, mu, gravity, plate_mu=0.0, y_bottom=np.nan):
-    x, y, r = (np.asarray(v, float) for v in (x, y, r))
-    a = np.asarray(a, np.int64)
-    b = np.asarray(b, np.int64)
-    nrm = []
-    for i, j in zip(a, b):
-        if i == -1 or j == -2:   # BOTTOM plate below disk j / TOP plate above disk i
-            nrm.append((0.0, 1.0))
-            continue
-        d = np.array([x[j] - x[i], y[j] - y[i]])
-        nrm.append(d / np.linalg.norm(d))
-    nrm = np.array(nrm)
-    pts = np.array([(x[i] + r[i] * n[0], y[i] + r[i] * n[1]) if j < 0 else
-                    (x[j] - r[j] * n[0], y[j] - r[j] * n[1]) for i, j, n in zip(a, b, nrm)])
-    return Packing(x=x, y=y, r=r, width=100.0, periodic_x=False, y_bottom=y_bottom,
-                   y_top=np.nan, top_force=0.0, gravity=gravity, density=1.0, mu=mu,
-                   plate_mu=plate_mu, a=a, b=b, normal=nrm, point=pts,
-                   image=np.zeros(len(a), np.int64), gap=np.zeros(len(a)),
-                   fn=np.asarray(fn, float), ft=np.asarray(ft, float))
+    return Packing.from_arrays(x, y, r, a, b, fn, ft, width=100.0, y_bottom=y_bottom,
+                               gravity=gravity, mu=mu, plate_mu=plate_mu)
 
 
 def grooves(thetas, mu, W=1.0):
