@@ -284,7 +284,7 @@ def _window_displacement(scene: Scene, bodies: Bodies, start, keys, rn) -> float
     if not loaded.any():
         return float(plate)
     if periodic and scene["physics.plate_mu"] == 0.0:
-        m = bodies.r[loaded] ** 2
+        m = 1.0 / bodies.inv_mx[:n][loaded]      # the kernel's masses (per-disk densities)
         dx = dx - (m * dx[loaded]).sum() / m.sum()
     disp = np.hypot(dx, bodies.y[:n] - y0[:n]) + bodies.r * np.abs(bodies.th[:n] - th0[:n])
     return float(max(disp[loaded].max(), plate))
