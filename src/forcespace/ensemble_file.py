@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -208,6 +209,58 @@ def flush_due(n_buffered: int, n_written: int, every: int, since_last: float) ->
     if n_buffered == 0:
         return False
     return n_buffered >= max(every, n_written // 10) or since_last >= CHECKPOINT_SECONDS
+
+
+class SampleWriter:
+    """Buffers a sampler's samples and appends them to its ensemble file.
+
+    ``state(n_total)`` returns the checkpoint (arrays, attrs) that resumes the
+    walk after ``n_total`` samples; it is called at every append. Appends come
+    when :func:`flush_due` says so, or when ``max_seconds`` since ``t_start``
+    have passed (then :meth:`add` returns True: stop). Used as a context
+    manager it appends whatever is buffered on exit, error or not, so finished
+    samples are never lost.
+    """
+
+    def __init__(self, out, n_written: int, every: int, state, max_seconds=None,
+                 t_start=None):
+        self.out, self.n_written, self.every, self.state = out, n_written, every, state
+        self.max_seconds = max_seconds
+        self.last = time.perf_counter()
+        self.t_start = self.last if t_start is None else t_start
+        self._x, self._chain, self._violation = [], [], []
+
+    @property
+    def n_total(self) -> int:
+        """Samples written plus buffered."""
+        return self.n_written + len(self._x)
+
+    def add(self, x, chain: int, violation: float) -> bool:
+        """Buffer one sample (2m,); append when due. Returns True when time is up."""
+        self._x.append(x)
+        self._chain.append(chain)
+        self._violation.append(violation)
+        now = time.perf_counter()
+        timeout = self.max_seconds is not None and now - self.t_start > self.max_seconds
+        if timeout or flush_due(len(self._x), self.n_written, self.every, now - self.last):
+            self.flush()
+        return timeout
+
+    def flush(self) -> None:
+        if self._x:
+            arrays, attrs = self.state(self.n_total)
+            self.n_written = append(self.out, np.array(self._x),
+                                    np.array(self._chain, np.int64), self._violation,
+                                    arrays, attrs)
+            self._x, self._chain, self._violation = [], [], []
+        self.last = time.perf_counter()
+
+    def __enter__(self) -> "SampleWriter":
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        self.flush()
+        return False
 
 
 def append(path, X, chains, violations, checkpoint: dict, checkpoint_attrs: dict) -> int:

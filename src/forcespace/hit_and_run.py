@@ -33,6 +33,7 @@ averages) and of three fixed random projections; per-chain η.
 from __future__ import annotations
 
 import json
+import sys
 import time
 
 import numpy as np
@@ -357,56 +358,43 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
     except (KeyError, ValueError) as exc:
         raise InputError(out, "checkpoint", f"corrupt ({exc}); delete the file to restart") \
             from None
-    done = ens.n_samples
     bar = None
     if progress:
         from tqdm import tqdm
-        bar = tqdm(total=n, initial=min(done, n), desc="hit-and-run", unit="sample",
-                   file=__import__("sys").stderr)
-    buf_x, buf_c, buf_v = [], [], []
-    last_flush = time.perf_counter()
+        bar = tqdm(total=n, initial=min(ens.n_samples, n), desc="hit-and-run", unit="sample",
+                   file=sys.stderr)
     coord = params["direction"] == "coordinate"
     state_ok = (W.copy(), states.copy())     # chain state after the last accepted sample
 
-    def flush():
-        nonlocal done, buf_x, buf_c, buf_v
-        if buf_x:
-            done = ef.append(out, np.array(buf_x), buf_c, buf_v,
-                             {"w": state_ok[0], "rng": state_ok[1]},
-                             {"n_done": done + len(buf_x), "steps_per_sample": params["thin"]})
-        buf_x, buf_c, buf_v = [], [], []
+    def state(n_total):
+        return ({"w": state_ok[0], "rng": state_ok[1]},
+                {"n_done": n_total, "steps_per_sample": params["thin"]})
 
     try:
-        while done + len(buf_x) < n:
-            i = done + len(buf_x)
-            c = i % params["chains"]
-            if d:
-                bad = har_steps(H, s0, W[c], states[c], params["thin"], coord)
-                if bad > params["thin"] // 2:
-                    raise NumericalError("hit-and-run: most chords degenerate; S is "
-                                         "(numerically) flat in a direction the analysis kept")
-            x = xc + T @ W[c]
-            v = problem.violation(x)
-            if not v <= MAX_VIOLATION:
-                raise NumericalError(f"hit-and-run sample {i} violates S by {v:.3e} x <Fn> "
-                                     f"(> {MAX_VIOLATION})")
-            buf_x.append(x)
-            buf_c.append(c)
-            buf_v.append(v)
-            state_ok[0][c], state_ok[1][c] = W[c], states[c]
-            if bar is not None:
-                bar.update(1)
-            timeout = max_seconds is not None and time.perf_counter() - t0 > max_seconds
-            if timeout or ef.flush_due(len(buf_x), done, checkpoint_every,
-                                       time.perf_counter() - last_flush):
-                flush()
-                last_flush = time.perf_counter()
-                if timeout:
+        with ef.SampleWriter(out, ens.n_samples, checkpoint_every, state, max_seconds,
+                             t0) as writer:
+            while writer.n_total < n:
+                i = writer.n_total
+                c = i % params["chains"]
+                if d:
+                    bad = har_steps(H, s0, W[c], states[c], params["thin"], coord)
+                    if bad > params["thin"] // 2:
+                        raise NumericalError("hit-and-run: most chords degenerate; S is "
+                                             "(numerically) flat in a direction the analysis "
+                                             "kept")
+                x = xc + T @ W[c]
+                v = problem.violation(x)
+                if not v <= MAX_VIOLATION:
+                    raise NumericalError(f"hit-and-run sample {i} violates S by {v:.3e} x "
+                                         f"<Fn> (> {MAX_VIOLATION})")
+                state_ok[0][c], state_ok[1][c] = W[c], states[c]
+                if bar is not None:
+                    bar.update(1)
+                if writer.add(x, c, v):
                     break
     finally:
-        flush()            # finished samples are never lost, whatever stops the walk
-    if bar is not None:
-        bar.close()
+        if bar is not None:
+            bar.close()
     ens = ef.read(out)
     diag = diagnostics(ens.samples, ens.chains, params["seed"])
     return {"n_samples": ens.n_samples, "dim_S": d, "wall_time_s": time.perf_counter() - t0,

@@ -174,51 +174,39 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
                          "corrupt: delete the file to restart") from None
     sweeps_total = int(ens.checkpoint_attrs.get("sweeps_total", 0))
     projected_idx = [int(i) for i in ens.checkpoint.get("projected", [])]
-    done = ens.n_samples
     bar = None
     if progress:
         from tqdm import tqdm
-        bar = tqdm(total=n, initial=min(done, n), desc="relax", unit="sample", file=sys.stderr)
-    buf_x, buf_v = [], []
+        bar = tqdm(total=n, initial=min(ens.n_samples, n), desc="relax", unit="sample",
+                   file=sys.stderr)
 
-    def flush():
-        nonlocal done, buf_x, buf_v
-        if buf_x:
-            done = ef.append(out, np.array(buf_x), np.zeros(len(buf_x), np.int64), buf_v,
-                             {"x": x, "projected": np.array(projected_idx, np.int64)},
-                             {"rng_state": json.dumps(rng.bit_generator.state),
-                              "n_done": done + len(buf_x), "sweeps_total": int(sweeps_total),
-                              "n_projected": len(projected_idx)})
-        buf_x, buf_v = [], []
+    def state(n_total):
+        return ({"x": x, "projected": np.array(projected_idx, np.int64)},
+                {"rng_state": json.dumps(rng.bit_generator.state), "n_done": n_total,
+                 "sweeps_total": int(sweeps_total), "n_projected": len(projected_idx)})
 
-    last_flush = time.perf_counter()
     try:
-        while done + len(buf_x) < n:
-            i = done + len(buf_x)
-            xk = kick(x, problem.mu, problem.force_scale, rng)
-            xn, res, projected = relaxer.relax(xk, tol, chunk, max_sweeps, seed + 1 + i)
-            v_check = problem.violation(xn)
-            if not v_check <= tol:
-                raise NumericalError(f"relax sample {i} violates S by {v_check:.3e} x <Fn> "
-                                     f"({res.message})")
-            x = xn
-            sweeps_total += res.sweeps
-            if projected:
-                projected_idx.append(i)
-            buf_x.append(x)
-            buf_v.append(v_check)
-            if bar is not None:
-                bar.update(1)
-                bar.set_postfix(sweeps=res.sweeps, projected=len(projected_idx), refresh=False)
-            timeout = max_seconds is not None and time.perf_counter() - t0 > max_seconds
-            if timeout or ef.flush_due(len(buf_x), done, checkpoint_every,
-                                       time.perf_counter() - last_flush):
-                flush()
-                last_flush = time.perf_counter()
-                if timeout:
+        with ef.SampleWriter(out, ens.n_samples, checkpoint_every, state, max_seconds,
+                             t0) as writer:
+            while writer.n_total < n:
+                i = writer.n_total
+                xk = kick(x, problem.mu, problem.force_scale, rng)
+                xn, res, projected = relaxer.relax(xk, tol, chunk, max_sweeps, seed + 1 + i)
+                v_check = problem.violation(xn)
+                if not v_check <= tol:
+                    raise NumericalError(f"relax sample {i} violates S by {v_check:.3e} x "
+                                         f"<Fn> ({res.message})")
+                x = xn
+                sweeps_total += res.sweeps
+                if projected:
+                    projected_idx.append(i)
+                if bar is not None:
+                    bar.update(1)
+                    bar.set_postfix(sweeps=res.sweeps, projected=len(projected_idx),
+                                    refresh=False)
+                if writer.add(x, 0, v_check):
                     break
     finally:
-        flush()            # finished samples are never lost, whatever stops the walk
         if bar is not None:
             bar.close()
     ens = ef.read(out)
