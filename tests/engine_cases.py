@@ -2,7 +2,7 @@
 import numpy as np
 
 from forcespace.contacts import N_WALL_SLOTS
-from forcespace.dynamics import run_steps
+from forcespace.dynamics import ContactState, StepParams, run_steps
 from forcespace.jamming import Bodies
 
 
@@ -37,9 +37,9 @@ def free_bodies(x, y, r, vx=None, vy=None, fixed=(), density=1.0, rotation=True,
 def step(bodies, nsteps, dt=0.01, width=100.0, periodic=False, mu=0.0, margin=0.5,
          tol=1e-12, max_sweeps=1000, seed=1, state=None):
     """Advance free disks (no walls) ``nsteps``; returns (keys, rn, rt, stats)."""
-    keys, rn, rt = state if state is not None else (np.zeros(0, np.int64), np.zeros(0),
-                                                    np.zeros(0))
-    return run_steps(bodies.x, bodies.y, bodies.th, bodies.vx, bodies.vy, bodies.w, bodies.r,
-                     bodies.n, bodies.inv_mx, bodies.inv_my, bodies.inv_i, bodies.fy_ext,
-                     width, periodic, False, False, False, margin, dt, tol, max_sweeps,
-                     mu, 0.0, bool(bodies.inv_i.any()), keys, rn, rt, nsteps, seed)
+    params = StepParams(width=width, periodic=periodic, has_bottom=False, has_top=False,
+                        has_sides=False, margin=margin, dt=dt, tol=tol, max_sweeps=max_sweeps,
+                        mu_disk=mu, mu_wall=0.0, rotation=bool(bodies.inv_i.any()))
+    contacts = ContactState(*state) if state is not None else ContactState.empty()
+    (keys, rn, rt), stats = run_steps(bodies, params, contacts, nsteps, seed)
+    return keys, rn, rt, stats

@@ -11,7 +11,7 @@ import pytest
 
 from engine_cases import free_bodies
 from forcespace.contacts import SLOT_BOTTOM
-from forcespace.dynamics import run_steps
+from forcespace.dynamics import ContactState, StepParams, run_steps
 
 
 def launch(v0, mu, g, r, dt, nsteps):
@@ -19,15 +19,14 @@ def launch(v0, mu, g, r, dt, nsteps):
     bodies.y[1 + SLOT_BOTTOM] = 0.0
     history = []
     tangential_updates = 0
-    keys, rn, rt = np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
+    contacts = ContactState.empty()
+    params = StepParams(width=100.0, periodic=False, has_bottom=True, has_top=False,
+                        has_sides=False, margin=0.1, dt=dt, tol=1e-13, max_sweeps=1000,
+                        mu_disk=0.0, mu_wall=mu, rotation=True)
     for _ in range(nsteps):
-        keys, rn, rt, stats = run_steps(bodies.x, bodies.y, bodies.th, bodies.vx, bodies.vy,
-                                    bodies.w, bodies.r, 1, bodies.inv_mx, bodies.inv_my,
-                                    bodies.inv_i, bodies.fy_ext, 100.0, False, True, False,
-                                    False, 0.1, dt, 1e-13, 1000, 0.0, mu, True, keys, rn, rt,
-                                    1, 7)
-        history.append((bodies.vx[0], bodies.w[0], rn[0], rt[0]))
-        tangential_updates += int(stats[4])
+        contacts, stats = run_steps(bodies, params, contacts, 1, 7)
+        history.append((bodies.vx[0], bodies.w[0], contacts.rn[0], contacts.rt[0]))
+        tangential_updates += stats.tangential_updates
     return np.array(history), tangential_updates
 
 

@@ -14,6 +14,8 @@ the scene asks for: ``fy_ext`` holds gravity and the top-plate load.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -70,23 +72,12 @@ def contact_arrays(ints, floats, r, n, mu_disk, mu_wall):
 
 
 @njit(cache=True)
-def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
+def _run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
               width, periodic, has_bottom, has_top, has_sides, margin,
               dt, tol, max_sweeps, mu_disk, mu_wall, rotation,
               keys, rn, rt, nsteps, seed, overlap_correction=0.0, overlap_slop=0.0):
-    """Advance ``nsteps`` steps in place.
-
-    Arrays of shape (n+4,): positions x, y, angle th, velocities vx, vy, w,
-    inverse masses, external vertical force fy_ext [F0]. ``keys, rn, rt``:
-    the previous step's contacts (sorted keys) and forces for warm starting.
-    ``overlap_correction``, ``overlap_slop``: see :func:`forcespace.nlgs.nlgs_solve`.
-
-    Returns (keys, rn, rt, stats) with the last step's contacts and ``stats``
-    of shape (8,): total sweeps, max sweeps in a step, max final relative
-    change, normal updates, tangential updates, max kinetic energy per disk (free-flying disks in zero gravity and a uniform
-    horizontal drift, a zero mode with periodic x and frictionless walls, excluded),
-    max |v_top|, steps whose NLGS hit the sweep cap.
-    """
+    """The kernel of :func:`run_steps` (positional arrays; stats as an (8,) array
+    in the order of :class:`StepStats`)."""
     stats = np.zeros(8)
     nb = n + N_WALL_SLOTS
     mass = np.zeros(nb)
@@ -153,3 +144,68 @@ def run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
         stats[5] = max(stats[5], vmax)
         stats[6] = max(stats[6], abs(vy[n + 1]))
     return keys, rn, rt, stats
+
+
+class StepParams(NamedTuple):
+    """What a scene asks the time stepper for (see :mod:`forcespace.scene`)."""
+
+    width: float                 # box width [R]
+    periodic: bool               # periodic x (else side walls if has_sides)
+    has_bottom: bool             # fixed lower plate
+    has_top: bool                # load-controlled upper plate
+    has_sides: bool              # side walls at x = 0 and x = width
+    margin: float                # pairs closer than this gap [R] are contacts
+    dt: float                    # time step
+    tol: float                   # NLGS relative force change that ends a step
+    max_sweeps: int              # NLGS sweep cap per step
+    mu_disk: float               # disk-disk Coulomb coefficient
+    mu_wall: float               # disk-wall Coulomb coefficient
+    rotation: bool               # integrate disk rotation
+    overlap_correction: float = 0.0   # see forcespace.nlgs.nlgs_solve
+    overlap_slop: float = 0.0         # [R]
+
+
+class ContactState(NamedTuple):
+    """A step's contacts: sorted keys a*(n+4)+b (Nc,), forces rn, rt (Nc,) [F0]."""
+
+    keys: np.ndarray
+    rn: np.ndarray
+    rt: np.ndarray
+
+    @classmethod
+    def empty(cls) -> "ContactState":
+        return cls(np.zeros(0, np.int64), np.zeros(0), np.zeros(0))
+
+
+class StepStats(NamedTuple):
+    """Solver statistics of a run of steps."""
+
+    sweeps_total: int            # NLGS sweeps over all steps
+    sweeps_max_step: int         # the most sweeps one step needed
+    max_rel_change: float        # largest final relative force change of a step's NLGS
+    normal_updates: int          # single-contact normal updates
+    tangential_updates: int      # single-contact friction updates (0 without friction)
+    max_speed: float             # largest speed of a loaded disk (drift mode excluded)
+    max_top_speed: float         # largest |v| of the top plate
+    steps_at_sweep_cap: int      # steps whose NLGS hit max_sweeps unconverged
+
+
+def run_steps(bodies, params: StepParams, contacts: ContactState, nsteps: int,
+              seed: int) -> tuple[ContactState, StepStats]:
+    """Advance ``nsteps`` steps in place; returns the last step's contacts and the stats.
+
+    ``bodies``: arrays of shape (n+4,) (disks, then the wall slots) ``x, y, th,
+    vx, vy, w, inv_mx, inv_my, inv_i, fy_ext`` [R, rad, R/t, 1/mass, force]
+    and radii ``r`` (n,), e.g. :class:`forcespace.jamming.Bodies`; positions and
+    velocities are updated in place. ``contacts``: the previous step's
+    contacts, for warm starting.
+    """
+    b, p = bodies, params
+    keys, rn, rt, st = _run_steps(
+        b.x, b.y, b.th, b.vx, b.vy, b.w, b.r, b.r.shape[0], b.inv_mx, b.inv_my, b.inv_i,
+        b.fy_ext, p.width, p.periodic, p.has_bottom, p.has_top, p.has_sides, p.margin, p.dt,
+        p.tol, p.max_sweeps, p.mu_disk, p.mu_wall, p.rotation, contacts.keys, contacts.rn,
+        contacts.rt, nsteps, seed, p.overlap_correction, p.overlap_slop)
+    return ContactState(keys, rn, rt), StepStats(
+        int(st[0]), int(st[1]), float(st[2]), int(st[3]), int(st[4]), float(st[5]),
+        float(st[6]), int(st[7]))

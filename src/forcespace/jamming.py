@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .contacts import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, detect_contacts, packing_body_code
-from .dynamics import contact_arrays, run_steps, warm_start
+from .dynamics import ContactState, StepParams, contact_arrays, run_steps, warm_start
 from .errors import InputError, NumericalError
 from .h5io import atomic_path
 from .relaxation import FrozenContacts, relax
@@ -141,6 +141,18 @@ def _flags(scene: Scene):
             scene["plates.top"] == "load", not scene["box.periodic_x"])
 
 
+def step_params(scene: Scene) -> StepParams:
+    """The time stepper's parameters for a scene."""
+    periodic, has_bottom, has_top, has_sides = _flags(scene)
+    return StepParams(
+        width=scene["box.width"], periodic=periodic, has_bottom=has_bottom, has_top=has_top,
+        has_sides=has_sides, margin=scene["solver.contact_margin"], dt=scene["solver.dt"],
+        tol=scene["solver.tolerance"], max_sweeps=scene["solver.max_sweeps"],
+        mu_disk=scene["physics.mu"], mu_wall=scene["physics.plate_mu"], rotation=scene.rotation,
+        overlap_correction=scene["solver.overlap_correction"],
+        overlap_slop=scene["solver.overlap_slop"])
+
+
 CHECKPOINT_SECONDS = 30.0
 _STATE_ARRAYS = ("x", "y", "th", "vx", "vy", "w")
 
@@ -190,10 +202,8 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
 
     Raises NumericalError if the state becomes non-finite or max_steps is reached.
     """
-    periodic, has_bottom, has_top, has_sides = _flags(scene)
     window = scene["jamming.window"]
     v_tol = scene["jamming.velocity_tol"] * _velocity_scale(scene, bodies)
-    beta = scene["solver.overlap_correction"]
     run = load_checkpoint(checkpoint, scene, bodies) if checkpoint else None
     if run is None:
         run = {"log": [], "totals": np.zeros(8), "keys": np.zeros(0, dtype=np.int64),
@@ -205,30 +215,28 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
                    disable=not show_progress)
     bar.update(run["steps"])
     window_time = window * scene["solver.dt"]
+    params = step_params(scene)
     v_mean = float("nan")
     try:
         while run["steps"] < scene["jamming.max_steps"]:
             start = (bodies.x.copy(), bodies.y.copy(), bodies.th.copy())
-            run["keys"], run["rn"], run["rt"], st = run_steps(
-                bodies.x, bodies.y, bodies.th, bodies.vx, bodies.vy, bodies.w, bodies.r,
-                bodies.n, bodies.inv_mx, bodies.inv_my, bodies.inv_i, bodies.fy_ext,
-                scene["box.width"], periodic, has_bottom, has_top, has_sides,
-                scene["solver.contact_margin"], scene["solver.dt"], scene["solver.tolerance"],
-                scene["solver.max_sweeps"], scene["physics.mu"], scene["physics.plate_mu"],
-                scene.rotation, run["keys"], run["rn"], run["rt"], window, seed + run["steps"],
-                beta, scene["solver.overlap_slop"])
+            state, st = run_steps(bodies, params, ContactState(run["keys"], run["rn"], run["rt"]),
+                                  window, seed + run["steps"])
+            run["keys"], run["rn"], run["rt"] = state
             run["steps"] += window
-            totals[0] += st[0]
-            totals[1] = max(totals[1], st[1])
-            totals[3:5] += st[3:5]
-            totals[7] += st[7]
+            totals[0] += st.sweeps_total
+            totals[1] = max(totals[1], st.sweeps_max_step)
+            totals[3] += st.normal_updates
+            totals[4] += st.tangential_updates
+            totals[7] += st.steps_at_sweep_cap
             _check_state(scene, bodies, run["steps"])
             v_mean = _window_displacement(scene, bodies, start, run["keys"], run["rn"]) \
                 / window_time
             bar.update(window)
-            bar.set_postfix(v_mean=f"{v_mean:.1e}", v_max=f"{st[5]:.1e}",
-                            sweeps=f"{st[0] / window:.0f}", refresh=False)
-            run["log"].append((run["steps"], v_mean, st[5], st[0] / window, st[2]))
+            bar.set_postfix(v_mean=f"{v_mean:.1e}", v_max=f"{st.max_speed:.1e}",
+                            sweeps=f"{st.sweeps_total / window:.0f}", refresh=False)
+            run["log"].append((run["steps"], v_mean, st.max_speed, st.sweeps_total / window,
+                               st.max_rel_change))
             if v_mean <= v_tol and _load_carried(scene, bodies, run["keys"], run["rn"]):
                 break
             if checkpoint and time.perf_counter() - last_save > CHECKPOINT_SECONDS:
