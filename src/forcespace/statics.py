@@ -56,7 +56,8 @@ class StaticsProblem:
     contact indices of the unknown columns; disks (n,) packing disk indices.
     Kernel data for the NLGS relaxation: ``ka, kb`` (m,) body indices (interior
     disks 0..n-1, then fixed supports n..), ``nx, ny, ra, rb`` (m,);
-    ``mass, radius`` (n,); ``load_force`` (n, 2), ``load_torque`` (n,) [F0, F0 R].
+    ``mass, radius`` (n,); the loads of the interior disks, ``load_force`` (n, 2)
+    and ``load_torque`` (n,) [F0, F0 R], are read off b (one representation).
     """
 
     kind: str                  # "slice" or "full"
@@ -78,8 +79,6 @@ class StaticsProblem:
     rb: np.ndarray
     mass: np.ndarray
     radius: np.ndarray
-    load_force: np.ndarray
-    load_torque: np.ndarray
     n_supports: int = 0        # number of fixed kernel bodies after the disks (walls, support disks)
     source: str = ""
     meta: dict = field(default_factory=dict)
@@ -119,7 +118,20 @@ class StaticsProblem:
                 meta[k] = np.asarray(meta[k], float) * f
         return dataclasses.replace(
             self, b=self.b * f, x_jammed=self.x_jammed * f, force_scale=self.force_scale * f,
-            load_force=self.load_force * f, load_torque=self.load_torque * f, meta=meta)
+            meta=meta)
+
+    # ---- loads (from the rows of b) -----------------------------------------
+    @property
+    def load_force(self) -> np.ndarray:
+        """Fixed loads on the interior disks (n, 2) [F0]: b = -(loads), rows 3i, 3i+1."""
+        n = self.n_interior
+        return -np.column_stack([self.b[0:3 * n:3], self.b[1:3 * n:3]])
+
+    @property
+    def load_torque(self) -> np.ndarray:
+        """Fixed torques on the interior disks (n,) [F0 R]: row 3i+2 holds torque / r_i."""
+        n = self.n_interior
+        return -self.b[2:3 * n:3] * self.radius
 
     # ---- column maps --------------------------------------------------------
     def forces_from_packing(self, fn, ft) -> np.ndarray:
@@ -322,8 +334,6 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     else:
         bvec = np.zeros_like(bvec)
     inconsistency = float(np.abs(b_raw - bvec).max(initial=0.0))
-    load_force = np.column_stack([-bvec[0::3], -bvec[1::3]])
-    load_torque = -bvec[2::3] * r[disks]
 
     # ---- kernel data ----
     wall_codes = sorted({int(c) for c in np.concatenate([a[contacts], bb[contacts]])
@@ -352,7 +362,7 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
         load_contacts=np.flatnonzero(load), x_jammed=x_j, force_scale=scale,
         ka=ka, kb=kb, nx=nrm[contacts, 0].copy(), ny=nrm[contacts, 1].copy(),
         ra=ra, rb=rb, mass=np.asarray(p.mass, float)[disks], radius=r[disks],
-        load_force=load_force, load_torque=load_torque, n_supports=len(wall_codes),
+        n_supports=len(wall_codes),
         source=source,
         meta={"load_inconsistency": inconsistency / scale, "b_raw": b_raw,
               "packing_fn": np.asarray(p.fn, float).copy(),
