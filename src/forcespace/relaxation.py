@@ -10,6 +10,7 @@ when the network is admissible.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -45,6 +46,32 @@ class FrozenContacts:
         self.mn, self.mt = effective_masses(self.a, self.b, self.nx, self.ny, self.ra, self.rb,
                                             self.inv_mx, self.inv_my, self.inv_i)
         self.closed = np.zeros(self.a.shape[0])
+
+    def velocities(self, rn, rt):
+        """Velocities (vx, vy, w), each (nb,), of the loads and the contact forces rn,
+        rt (Nc,) applied from rest over dt = 1 (statics: masses only precondition)."""
+        vx, vy, w = (v.copy() for v in self.v_ext)
+        add_contact_velocities(self.a, self.b, self.nx, self.ny, self.ra, self.rb, rn, rt,
+                               self.inv_mx, self.inv_my, self.inv_i, 1.0, vx, vy, w)
+        return vx, vy, w
+
+    def sweep(self, rn, rt, velocities, max_sweeps: int, seed: int) -> "SweepResult":
+        """Up to ``max_sweeps`` Gauss-Seidel sweeps on rn, rt (in place), gaps closed,
+        dt = 1 (:func:`forcespace.nlgs.nlgs_solve`)."""
+        vx, vy, w = velocities
+        return SweepResult(*nlgs_solve(
+            self.a, self.b, self.nx, self.ny, self.ra, self.rb, self.closed, self.mu, self.mn,
+            self.mt, rn, rt, vx, vy, w, self.inv_mx, self.inv_my, self.inv_i, 1.0, 0.0,
+            max_sweeps, seed))
+
+
+class SweepResult(NamedTuple):
+    """What a run of Gauss-Seidel sweeps did."""
+
+    sweeps: int
+    relative_change: float       # sum |dR| / sum |R| of the last sweep
+    normal_updates: int
+    tangential_updates: int      # 0 without friction
 
 
 @dataclass(frozen=True)
@@ -83,15 +110,11 @@ def relax(system: FrozenContacts, rn, rt, violation, tol, max_sweeps, seed=0, ch
     sweeps = n_tang = 0
     best, since = np.inf, 0
     while True:
-        vx, vy, w = (v.copy() for v in s.v_ext)
-        add_contact_velocities(s.a, s.b, s.nx, s.ny, s.ra, s.rb, rn, rt, s.inv_mx, s.inv_my,
-                               s.inv_i, 1.0, vx, vy, w)
-        sw, _rel, _nn, ntg = nlgs_solve(s.a, s.b, s.nx, s.ny, s.ra, s.rb, s.closed, s.mu, s.mn,
-                                        s.mt, rn, rt, vx, vy, w, s.inv_mx, s.inv_my, s.inv_i,
-                                        1.0, 0.0, min(chunk, max_sweeps - sweeps),
-                                        (seed * 1_000_003 + sweeps) % (2**31 - 1))
+        done = s.sweep(rn, rt, s.velocities(rn, rt), min(chunk, max_sweeps - sweeps),
+                       (seed * 1_000_003 + sweeps) % (2**31 - 1))
+        sw = done.sweeps
         sweeps += sw
-        n_tang += ntg
+        n_tang += done.tangential_updates
         viol = violation(rn, rt)
         if on_chunk is not None:
             on_chunk(sw, viol)
