@@ -484,7 +484,7 @@ def read_result(directory, rigid: Packing | None = None):
             "steps": status["steps"], "converged": bool(status["converged"]),
             "wall_time_s": status["wall_time_s"],
             "max_residual_force": float(np.linalg.norm(resid, axis=1).max(initial=0.0)),
-            "deck": str(d.resolve())}
+            "deck": d.name}
     kw = dict(width=W, periodic_x=True, y_bottom=ybot, y_top=float("nan"),
               top_force=top_force, gravity=0.0, density=1.0, mu=meta["mu"],
               plate_mu=meta["wall_mu"], seed=meta["packing"]["seed"],
