@@ -70,7 +70,8 @@ def test_full_problem_supports_bottom_loads_top():
     assert list(prob.load_contacts) == [5]            # the top plate's force is fixed
     assert prob.mu[0] == 0.0 and np.all(prob.mu[1:] == 0.4)
     assert prob.violation(prob.x_jammed) < 1e-14
-    assert prob.n_supports == 1                       # BOTTOM is one fixed kernel body
+    a, b, nx, ny = prob.contact_geometry()            # the floor contact: a support below
+    assert a[0] == -1 and b[0] == 0 and (nx[0], ny[0]) == (0.0, 1.0)
 
 
 def test_inconsistent_loads_are_projected_and_reported():

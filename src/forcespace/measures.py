@@ -182,9 +182,7 @@ def domains(problem, analysis, tol: float = CIRCUIT_TOL) -> list[Domain]:
     out = []
     for root, (cs, dim) in groups.items():
         cs = np.array(sorted(cs), dtype=np.int64)
-        bodies = np.concatenate([problem.ka[cs], problem.kb[cs]])
-        bodies = np.unique(bodies[bodies < problem.n_interior])
-        out.append(Domain(contacts=cs, disks=problem.disks[bodies], dim=int(dim),
+        out.append(Domain(contacts=cs, disks=problem.contact_disks(cs), dim=int(dim),
                           elementary=dim == 1))
     out.sort(key=lambda g: (-g.dim, -g.contacts.size))
     return out

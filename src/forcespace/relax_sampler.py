@@ -40,7 +40,6 @@ import numpy as np
 
 from . import ensemble_file as ef
 from .errors import InputError, NumericalError, require_int
-from .packing import TOP
 from .polytope import check_bounded, check_feasible, distance_to_S
 from .relaxation import FrozenContacts, RelaxResult, relax
 from .statics import StaticsProblem
@@ -57,29 +56,8 @@ class Relaxer:
         if p.n_contacts == 0:
             raise InputError(p.source or "problem", "contacts",
                              "no unknown contact in the problem: nothing to relax")
-        n = p.n_interior
-        nb = n + p.n_supports
         self.problem = p
-        inv_m = np.zeros(nb)
-        inv_m[:n] = 1.0 / p.mass
-        inv_my = inv_m.copy()
-        inv_i = np.zeros(nb)
-        inv_i[:n] = 1.0 / (0.5 * p.mass * p.radius ** 2)
-        v_ext = (np.zeros(nb), np.zeros(nb), np.zeros(nb))
-        v_ext[0][:n] = p.load_force[:, 0] / p.mass
-        v_ext[1][:n] = p.load_force[:, 1] / p.mass
-        v_ext[2][:n] = p.load_torque * inv_i[:n]
-        if p.kind == "full_plate" and TOP in p.meta.get("wall_codes", []):
-            # the load-controlled plate: vertical motion only, pressed down by the
-            # plate row's load (b[-1] = top_force); its mass only preconditions
-            q = n + p.meta["wall_codes"].index(TOP)
-            m_plate = float(p.mass.mean())
-            inv_my[q] = 1.0 / m_plate
-            v_ext[1][q] = -p.b[-1] / m_plate
-        self.system = FrozenContacts(
-            a=p.ka.astype(np.int64), b=p.kb.astype(np.int64), nx=p.nx.astype(float),
-            ny=p.ny.astype(float), ra=p.ra.astype(float), rb=p.rb.astype(float),
-            mu=p.mu.astype(float), inv_mx=inv_m, inv_my=inv_my, inv_i=inv_i, v_ext=v_ext)
+        self.system = frozen_contacts(p)
         self.mu = self.system.mu
 
     def relax(self, x, tol=DEFAULT_TOL, chunk=200, max_sweeps=2_000_000, seed=0,
@@ -109,6 +87,46 @@ class Relaxer:
             return out.copy(), res, False
         nearest = distance_to_S(self.problem, out).nearest
         return nearest, res, True
+
+
+def frozen_contacts(p: StaticsProblem) -> FrozenContacts:
+    """The solver view of a statics problem, derived from its H-representation.
+
+    Kernel bodies: the interior disks 0..n-1 (mass and inertia of the disk),
+    one fixed ground n for every support (walls, support disks: they never
+    move, so one body stands for all), and for the plate problem the plate
+    n+1, which moves vertically only, pressed down by the plate row's load
+    b[-1] = top_force. Contacts, normals and loads are read off A and b
+    (:meth:`StaticsProblem.contact_geometry`); masses only precondition.
+    """
+    n = p.n_interior
+    ground = n
+    a, b, nx, ny = p.contact_geometry()
+    plate = p.kind == "full_plate" and p.A.shape[0] > 3 * n
+    nb = n + (2 if plate else 1)
+    ka = np.where(a >= 0, a, ground)
+    if plate:
+        on_plate = np.zeros(p.n_contacts, bool)
+        on_plate[p.A[3 * n].indices // 2] = True
+        ka[on_plate & (a < 0)] = n + 1
+    radius = np.append(p.radius, 0.0)
+    inv_m = np.zeros(nb)
+    inv_m[:n] = 1.0 / p.mass
+    inv_my = inv_m.copy()
+    inv_i = np.zeros(nb)
+    inv_i[:n] = 1.0 / (0.5 * p.mass * p.radius ** 2)
+    v_ext = (np.zeros(nb), np.zeros(nb), np.zeros(nb))
+    v_ext[0][:n] = p.load_force[:, 0] / p.mass
+    v_ext[1][:n] = p.load_force[:, 1] / p.mass
+    v_ext[2][:n] = p.load_torque * inv_i[:n]
+    if plate:   # the plate's mass only preconditions too
+        m_plate = float(p.mass.mean())
+        inv_my[n + 1] = 1.0 / m_plate
+        v_ext[1][n + 1] = -p.b[3 * n] / m_plate
+    return FrozenContacts(a=ka.astype(np.int64), b=b.astype(np.int64), nx=nx, ny=ny,
+                          ra=radius[np.where(a >= 0, a, n)], rb=radius[b],
+                          mu=p.mu.astype(float), inv_mx=inv_m, inv_my=inv_my, inv_i=inv_i,
+                          v_ext=v_ext)
 
 
 def kick(x, mu, scale, rng):

@@ -54,10 +54,10 @@ class StaticsProblem:
     Shapes: n = interior disks, m = unknown contacts.
     A (3n, 2m) sparse CSR, b (3n,) [F0]; mu (m,); contacts (m,) packing
     contact indices of the unknown columns; disks (n,) packing disk indices.
-    Kernel data for the NLGS relaxation: ``ka, kb`` (m,) body indices (interior
-    disks 0..n-1, then fixed supports n..), ``nx, ny, ra, rb`` (m,);
-    ``mass, radius`` (n,); the loads of the interior disks, ``load_force`` (n, 2)
-    and ``load_torque`` (n,) [F0, F0 R], are read off b (one representation).
+    ``mass, radius`` (n,) of the interior disks. Everything else a solver needs
+    is read off this H-representation (A, b, mu and the bounds): the loads
+    (``load_force``, ``load_torque``), the bodies and normals of every contact
+    (:meth:`contact_geometry`), and the plate's balance row.
     """
 
     kind: str                  # "slice" or "full"
@@ -71,15 +71,8 @@ class StaticsProblem:
     load_contacts: np.ndarray  # packing indices of contacts held as fixed loads
     x_jammed: np.ndarray       # packing forces in column order (2m,)
     force_scale: float         # <Fn>: mean jammed fn over unknown contacts with fn > 0 [F0]
-    ka: np.ndarray
-    kb: np.ndarray
-    nx: np.ndarray
-    ny: np.ndarray
-    ra: np.ndarray
-    rb: np.ndarray
     mass: np.ndarray
     radius: np.ndarray
-    n_supports: int = 0        # number of fixed kernel bodies after the disks (walls, support disks)
     source: str = ""
     meta: dict = field(default_factory=dict)
     _inequalities: tuple | None = field(default=None, init=False, repr=False, compare=False)
@@ -119,6 +112,42 @@ class StaticsProblem:
         return dataclasses.replace(
             self, b=self.b * f, x_jammed=self.x_jammed * f, force_scale=self.force_scale * f,
             meta=meta)
+
+    # ---- the contact network, read off A -----------------------------------------
+    def contact_geometry(self):
+        """(a, b, nx, ny) (m,) of every unknown contact, read off A.
+
+        a, b: interior-disk indices 0..n-1 of the contact's bodies, -1 for a
+        support (wall, support disk, or the plate); n = (nx, ny) the unit
+        normal from a to b. A holds +n in the force rows of b and -n in those
+        of a; which interior disk is called b is immaterial (relabelling flips
+        n and t together and keeps fn, ft), so the lower-indexed one is.
+        """
+        n = self.n_interior
+        F = self.A[:3 * n].tocsc()
+        m = self.n_contacts
+        a = -np.ones(m, np.int64)
+        b = -np.ones(m, np.int64)
+        nx = np.zeros(m)
+        ny = np.zeros(m)
+        for j in range(m):
+            lo, hi = F.indptr[2 * j], F.indptr[2 * j + 1]
+            rows, vals = F.indices[lo:hi], F.data[lo:hi]
+            bodies = np.unique(rows[rows % 3 != 2] // 3)
+            first = bodies[0]
+            b[j] = first
+            nx[j] = vals[rows == 3 * first].sum() if (rows == 3 * first).any() else 0.0
+            ny[j] = vals[rows == 3 * first + 1].sum() if (rows == 3 * first + 1).any() else 0.0
+            if bodies.size > 1:
+                a[j] = bodies[1]
+        return a, b, nx, ny
+
+    def contact_disks(self, contacts) -> np.ndarray:
+        """Packing indices of the interior disks touched by problem contacts ``contacts``."""
+        n = self.n_interior
+        cols = 2 * np.asarray(contacts, np.int64)
+        rows = self.A[:3 * n][:, cols].tocoo().row
+        return self.disks[np.unique(rows // 3)]
 
     # ---- loads (from the rows of b) -----------------------------------------
     @property
@@ -335,17 +364,6 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
         bvec = np.zeros_like(bvec)
     inconsistency = float(np.abs(b_raw - bvec).max(initial=0.0))
 
-    # ---- kernel data ----
-    wall_codes = sorted({int(c) for c in np.concatenate([a[contacts], bb[contacts]])
-                         if c < 0 or not interior[c]}, key=lambda c: (c >= 0, -c if c < 0 else c))
-    wall_index = {c: n + q for q, c in enumerate(wall_codes)}
-    ka = np.array([wall_index.get(int(c), local[c] if c >= 0 else -1) for c in a[contacts]],
-                  dtype=np.int64)
-    kb = np.array([wall_index.get(int(c), local[c] if c >= 0 else -1) for c in bb[contacts]],
-                  dtype=np.int64)
-    ra = np.where(a[contacts] >= 0, r[np.maximum(a[contacts], 0)], 0.0)
-    rb = np.where(bb[contacts] >= 0, r[np.maximum(bb[contacts], 0)], 0.0)
-
     x_j = np.empty(2 * m)
     x_j[0::2] = p.fn[contacts]
     x_j[1::2] = p.ft[contacts]
@@ -360,14 +378,12 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
         kind=kind, height=height, A=A, b=bvec, mu=mu, contacts=contacts, disks=disks,
         rattlers=np.flatnonzero(rat & np.asarray(interior_mask, bool)),
         load_contacts=np.flatnonzero(load), x_jammed=x_j, force_scale=scale,
-        ka=ka, kb=kb, nx=nrm[contacts, 0].copy(), ny=nrm[contacts, 1].copy(),
-        ra=ra, rb=rb, mass=np.asarray(p.mass, float)[disks], radius=r[disks],
-        n_supports=len(wall_codes),
+        mass=np.asarray(p.mass, float)[disks], radius=r[disks],
         source=source,
         meta={"load_inconsistency": inconsistency / scale, "b_raw": b_raw,
               "packing_fn": np.asarray(p.fn, float).copy(),
               "packing_ft": np.asarray(p.ft, float).copy(),
-              "wall_codes": wall_codes, "packing_mu": p.mu, "plate_mu": p.plate_mu,
+              "packing_mu": p.mu, "plate_mu": p.plate_mu,
               "mu_override": mu_override,
               "scene_name": p.scene_name})
 
