@@ -125,9 +125,8 @@ def test_gravity_column_of_60_disks_comes_to_rest(mu):
         assert abs(held) == pytest.approx(W, rel=1e-8)
 
 
-def test_wedged_geometry_is_unbounded_and_refused_for_sampling(tmp_path, capsys):
+def test_wedged_geometry_is_unbounded_and_refused_for_sampling(tmp_path):
     from ensemble_cases import groove
-    from forcespace.packing_file import write_packing
     th = np.pi / 5
     p, prob = groove(th, 1.2 / np.tan(th))        # mu > cot(theta): self-locking
     an = analyze(prob, ranges=False)

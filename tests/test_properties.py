@@ -9,7 +9,6 @@ hit-and-run samples lie in S; the walk and eta do not depend on the load scale.
 import dataclasses
 
 import numpy as np
-import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 

@@ -41,7 +41,7 @@ import numpy as np
 from . import ensemble_file as ef
 from .errors import InputError, NumericalError, require_int
 from .polytope import check_bounded, check_feasible, distance_to_S
-from .relaxation import FrozenContacts, RelaxResult, relax
+from .relaxation import FrozenContacts, relax
 from .statics import StaticsProblem
 
 DEFAULT_TOL = 1e-9
