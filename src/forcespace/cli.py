@@ -30,7 +30,7 @@ from .errors import ForcespaceError, NumericalError
 EXIT_INPUT = 2
 EXIT_NOT_CONVERGED = 3
 
-BUILTIN = ("forcespace.cli_packing", "forcespace.cli_ensemble")
+BUILTIN = ("forcespace.cli_packing", "forcespace.cli_ensemble", "forcespace.cli_study")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,35 @@
+"""CLI command ``study``: run a study's tasks (local pool or Dask), then summarise."""
+from __future__ import annotations
+
+import importlib
+
+
+def register(sub) -> None:
+    from .studies import STUDIES
+    p = sub.add_parser("study", help="run a study sweep (resumable; local pool or Dask)")
+    p.add_argument("name", choices=sorted(STUDIES))
+    p.add_argument("--quick", action="store_true", help="a small version (seconds to a minute)")
+    p.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="run on an existing Dask cluster (e.g. tcp://host:8786)")
+    p.add_argument("--workers", type=int, default=None, metavar="K",
+                   help="local worker processes (default: the number of cores)")
+    p.add_argument("-o", "--output", default=None, metavar="DIR",
+                   help="study directory (default studies/out/NAME[-quick])")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_study)
+
+
+def cmd_study(args) -> int:
+    from .cli import print_json
+    from .errors import require_int
+    from .studies import STUDIES
+    from .study import run_tasks
+
+    if args.workers is not None:
+        require_int("--workers", "workers", args.workers, 1)
+    mod = importlib.import_module(STUDIES[args.name])
+    out = args.output or f"studies/out/{args.name}{'-quick' if args.quick else ''}"
+    results = run_tasks(mod.tasks(args.quick), out, workers=args.workers,
+                        scheduler=args.scheduler, progress=not args.quiet)
+    print_json(mod.summarize(results, out))
+    return 0

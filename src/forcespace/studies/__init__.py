@@ -1,0 +1,6 @@
+"""Study definitions for ``forcespace study NAME`` (see :mod:`forcespace.study`).
+
+Each study module has ``tasks(quick: bool) -> list[Task]`` and
+``summarize(results, out) -> dict`` (tables and figures under ``out``).
+"""
+STUDIES = {"fig1": "forcespace.studies.fig1"}

@@ -1,0 +1,123 @@
+"""The paper's Fig. 1: force ambiguity eta and coordination z versus friction mu.
+
+Tasks: one per (mu, seed): jam a packing at mu, analyse the slice's S, sample
+it with both samplers (uniform hit-and-run and the paper's relax walk), and
+the "squares": frictionless packings sampled with friction switched on at the
+same mu. The degree of indeterminacy 2Nc - 3n is measured on the full packing
+(force-bearing contacts and non-rattler disks, wall contacts counted), where
+it is a property of the packing rather than of a slice's boundary.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..study import Task
+
+QUICK = dict(scene="quick", n_disks=30, slice_height=12.0, mus=(0.01, 0.1, 1.0), seeds=(1, 2),
+             samples=12)
+FULL = dict(scene="paper", n_disks=200, slice_height=28.0,
+            mus=tuple(float(m) for m in np.logspace(-4, 1, 15)), seeds=(1, 2, 3, 4, 5),
+            samples=100)
+
+
+def tasks(quick: bool = False) -> list[Task]:
+    cfg = QUICK if quick else FULL
+    common = dict(scene=cfg["scene"], n_disks=cfg["n_disks"], slice_height=cfg["slice_height"],
+                  samples=cfg["samples"])
+    out = []
+    for mu in cfg["mus"]:
+        for seed in cfg["seeds"]:
+            out.append(Task(f"mu{mu:.3g}_s{seed}", "forcespace.studies.fig1:packing_task",
+                            dict(common, mu=mu, seed=seed)))
+    for seed in cfg["seeds"][:3]:         # the squares: mu = 0 packings, friction switched on
+        out.append(Task(f"mu0_on_s{seed}", "forcespace.studies.fig1:packing_task",
+                        dict(common, mu=0.0, seed=seed, mu_sample=list(cfg["mus"]))))
+    return out
+
+
+def packing_task(scene: str, n_disks: int, slice_height: float, samples: int, mu: float,
+                 seed: int, workdir, mu_sample=None) -> dict:
+    """Jam (or reuse) a packing, analyse its slice, sample S both ways.
+
+    ``mu_sample``: friction of S instead of the packing's (a list: one row per
+    value, all on the same packing). Returns {"rows": [one dict per S]}.
+    """
+    from .. import HitAndRun, RelaxWalk, jam, slice_problem
+    from ..packing import Packing
+    from ..polytope import analyze
+
+    wd = Path(workdir)
+    pfile = wd / "packing.h5"
+    inputs = Path(__file__).resolve().parents[3] / "inputs"
+    if pfile.is_file():
+        p = Packing.load(pfile)
+    else:
+        p = jam(inputs / f"{scene}.toml", physics__mu=mu, scene__seed=seed, disks__n=n_disks)
+        p.save(pfile)
+    rat = p.rattlers()
+    live = p.force_bearing() & ((p.a < 0) | ~rat[np.maximum(p.a, 0)]) \
+        & ((p.b < 0) | ~rat[np.maximum(p.b, 0)])
+    rows = []
+    for ms in (mu_sample if isinstance(mu_sample, list) else [mu_sample]):
+        prob = slice_problem(p, slice_height, mu=ms)
+        an = analyze(prob, ranges=False)
+        row = {"mu": mu, "mu_sample": mu if ms is None else ms, "seed": seed,
+               "z": p.coordination(), "n_rattlers": int(rat.sum()),
+               "nc_full": int(live.sum()), "n_full": int((~rat).sum()),
+               "dof_excess_full": int(2 * live.sum() - 3 * (~rat).sum()),
+               "slice_contacts": prob.n_contacts, "feasible": an.feasible,
+               "bounded": an.bounded, "dim_S": an.dim_S,
+               "degree_of_indeterminacy": an.degree_of_indeterminacy,
+               "eta_hit_and_run": None, "eta_relax": None}
+        tag = "" if ms is None else f"_mu{ms:.3g}"
+        if an.feasible and an.bounded and an.dim_S:
+            row["eta_hit_and_run"] = HitAndRun(n=samples, seed=seed).run(
+                prob, output=wd / f"hit_and_run{tag}.h5").eta
+            row["eta_relax"] = RelaxWalk(n=samples, seed=seed).run(
+                prob, output=wd / f"relax{tag}.h5").eta
+        elif an.feasible and an.dim_S == 0:
+            row["eta_hit_and_run"] = row["eta_relax"] = 0.0   # determinate: no ambiguity
+        rows.append(row)
+    return {"rows": rows}
+
+
+def summarize(results: list[dict], out) -> dict:
+    """fig1.csv (one row per task) and fig1.png/.pdf (eta and z against mu)."""
+    import csv
+
+    from matplotlib.figure import Figure
+
+    from ..draw import save_figure
+
+    out = Path(out)
+    ok = [dict(row, task=r["task"]) for r in results if r.get("ok") for row in r["rows"]]
+    keys = ["task", "mu", "mu_sample", "seed", "z", "dim_S", "degree_of_indeterminacy",
+            "nc_full", "n_full", "dof_excess_full", "eta_hit_and_run", "eta_relax"]
+    with open(out / "fig1.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
+        w.writeheader()
+        for r in ok:
+            w.writerow({k: r.get(k) for k in keys})
+    fig = Figure(figsize=(9, 4))
+    ax1, ax2 = fig.subplots(1, 2)
+    own = [r for r in ok if r["mu"] > 0]
+    squares = [r for r in ok if r["mu"] == 0]
+    for rows, marker, label in ((own, "o", "own packing"), (squares, "s", "mu = 0 packing")):
+        for key, colour in (("eta_hit_and_run", "C0"), ("eta_relax", "C1")):
+            pts = np.array([(r["mu_sample"], r[key]) for r in rows if r[key]], float)
+            if pts.size:
+                ax1.plot(pts[:, 0], pts[:, 1], marker, color=colour, mfc="none",
+                         label=f"{label}, {key[4:].replace('_', '-')}")
+    ax1.set(xscale="log", yscale="log", xlabel="mu", ylabel="eta")
+    ax1.legend(fontsize=7)
+    pts = np.array([(r["mu"], r["z"]) for r in own], float)
+    if pts.size:
+        ax2.plot(pts[:, 0], pts[:, 1], "o")
+    ax2.set(xscale="log", xlabel="mu", ylabel="z (rattlers excluded)")
+    fig.tight_layout()
+    save_figure(fig, out / "fig1.png")
+    return {"tasks": len(results), "failed": sum(not r.get("ok") for r in results),
+            "rows": len(ok),
+            "table": str(out / "fig1.csv"), "figure": str(out / "fig1.png")}
