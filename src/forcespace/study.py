@@ -15,6 +15,7 @@ import importlib
 import json
 import os
 import sys
+import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,12 +45,14 @@ def execute(task: Task, out: str) -> dict:
     fn = getattr(importlib.import_module(module), name)
     wd = task.workdir(out)
     wd.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
     try:
         result = {"task": task.name, "params": task.params, "ok": True,
                   **fn(**task.params, workdir=wd)}
     except ForcespaceError as exc:       # a task that fails is a result too, not a crash
         result = {"task": task.name, "params": task.params, "ok": False,
                   "error": f"{type(exc).__name__}: {exc}"}
+    result["wall_seconds"] = time.perf_counter() - t0
     from .cli import jsonable
     path = task.result_path(out)
     with atomic_path(path) as tmp, open(tmp, "w") as fh:
