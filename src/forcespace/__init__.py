@@ -23,6 +23,7 @@ The public API (``import forcespace as fs``)::
     distance_from_centre(samples, x0) Fig. 3 distances
     difference_field(packing, problem, x1, x2)   a drawable difference of two networks
     plot_difference(packing, problem, x1, x2, domains, ax)   Fig. 2-style figure
+    section(problem, x0, directions)  a 2-D cross-section of S (Fig. 3 inset) -> Section
     MemoryFile()                      an in-memory file for any output path
     InputError, NumericalError        what the library raises (CLI exit 2 and 3)
 
@@ -52,6 +53,7 @@ _LAZY = {
     "eta": "measures", "distance_from_centre": "measures", "difference_field": "measures",
     "plot_difference": "draw", "plot_packing": "draw",
     "MemoryFile": "h5io",
+    "section": "cross_section", "Section": "cross_section",
 }
 
 __all__ = ["__version__", "ForcespaceError", "InputError", "NumericalError", *_LAZY]

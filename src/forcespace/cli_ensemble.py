@@ -1,8 +1,11 @@
-"""CLI commands of the force ensemble: ``analyze``, ``sample``, ``ensemble``."""
+"""CLI commands of the force ensemble: ``analyze``, ``sample``, ``section``, ``ensemble``."""
 from __future__ import annotations
 
 import sys
 import time
+
+import numpy as np
+
 
 def load_problem(path, slice_height=None, full=False, gap_tol=float("inf"), mu=None):
     """Read a packing file and build the problem the options ask for
@@ -93,6 +96,27 @@ def cmd_ensemble(args) -> int:
     return 0
 
 
+def cmd_section(args) -> int:
+    from .cli import print_result
+    from .draw import figure_targets
+    from .outputs import check_output_file
+    from .cross_section import section
+
+    for target in figure_targets(args.output):
+        check_output_file(target, inputs=[args.packing])
+    _, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
+    sec = section(problem, n=args.n, seed=args.seed)
+    ax = sec.plot(title=f"S through the jammed network ({problem.kind}, seed {args.seed})")
+    ax.figure.tight_layout()
+    from .draw import save_figure
+    save_figure(ax.figure, args.output)
+    print_result({"figure": str(args.output), "inside_fraction": sec.inside_fraction,
+                  "s_range": list(sec.s_range), "t_range": list(sec.t_range),
+                  "jammed_state_violation": float(sec.violation[
+                      np.argmin(np.abs(sec.t)), np.argmin(np.abs(sec.s))])}, args.json)
+    return 0
+
+
 def register(subparsers) -> None:
     p = subparsers.add_parser("analyze", help="exact analysis of the force ensemble S (LPs)")
     p.add_argument("packing", metavar="PACK.h5")
@@ -123,6 +147,16 @@ def register(subparsers) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
     p.set_defaults(func=cmd_sample)
+
+    p = subparsers.add_parser("section", help="a 2-D cross-section of S through the jammed "
+                              "network (white inside S, grey by Coulomb violation)")
+    p.add_argument("packing", metavar="PACK.h5")
+    _add_problem_args(p)
+    p.add_argument("-n", type=int, default=201, help="grid points per axis (default 201)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the two random directions")
+    p.add_argument("-o", "--output", required=True, help="figure (.png also writes .pdf)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_section)
 
     p = subparsers.add_parser("ensemble", help="measures of a sampled ensemble (eta, ...)")
     p.add_argument("ensemble", metavar="ENS.h5")

@@ -1,0 +1,45 @@
+"""Cross-sections of S against a hand-derived polytope: two independent grooves."""
+import json
+
+import numpy as np
+import pytest
+
+import forcespace as fs
+from ensemble_cases import groove_interval, grooves
+from forcespace.cli import main
+from paths import PACKINGS
+
+THETAS, MU = [np.pi / 6, np.pi / 5], 0.3
+
+
+def test_section_of_two_grooves_is_their_rectangle():
+    # S is 2-dimensional, so any plane of its hull is S itself: a rectangle with sides
+    # L_k |u_k|, u_k = (dN/ds, 1, dN/ds, -1) per groove, |u_k| = sqrt(2) / cos(theta_k)
+    _, prob = grooves(THETAS, MU)
+    sec = fs.section(prob, n=401, seed=3, margin=0.1)
+    area = np.prod([np.subtract(*groove_interval(th, MU)[::-1]) * np.sqrt(2) / np.cos(th)
+                    for th in THETAS])
+    box = np.ptp(sec.s) * np.ptp(sec.t)
+    cell = box / (sec.s.size - 1) / (sec.t.size - 1)
+    assert sec.inside_fraction * box == pytest.approx(area, rel=0.02)
+    assert cell < 1e-4 * area
+    # inside means in S, outside means not (equilibrium holds on the whole plane)
+    S_, T_ = np.meshgrid(sec.s, sec.t)
+    rng = np.random.default_rng(0)
+    for i, j in rng.integers(0, sec.s.size, size=(60, 2)):
+        x = sec.x0 + S_[i, j] * sec.d1 + T_[i, j] * sec.d2
+        assert (prob.violation(x) <= 1e-9) == (sec.violation[i, j] == 0.0)
+    assert sec.violation.max() > 0 and sec.s_range[0] <= 0 <= sec.s_range[1]
+
+
+def test_section_cli_and_refusals(tmp_path, capsys):
+    p = fs.Packing.load(PACKINGS / "paper_mu0.1.h5")
+    p.save(tmp_path / "p.h5")
+    assert main(["section", str(tmp_path / "p.h5"), "-n", "41", "-o", str(tmp_path / "s.png"),
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert 0 < out["inside_fraction"] < 1 and out["jammed_state_violation"] == 0.0
+    assert (tmp_path / "s.png").is_file() and (tmp_path / "s.pdf").is_file()
+    _, prob = grooves([THETAS[0]], MU)                  # dim S = 1: no plane
+    with pytest.raises(fs.InputError, match="dim S"):
+        fs.section(prob)
