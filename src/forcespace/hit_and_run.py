@@ -422,11 +422,14 @@ class HitAndRun:
         self.options = dict(chains=chains, thin=thin, burn_in=burn_in, direction=direction)
         self.summary: dict = {}
 
-    def run(self, problem: StaticsProblem, output=None) -> "ef.Ensemble":
+    def run(self, problem: StaticsProblem, output=None,
+            max_seconds: float | None = None) -> "ef.Ensemble":
+        """Sample ``problem``'s S; stops early (fewer than n samples, all kept) after
+        ``max_seconds``. The run's numbers are in ``self.summary``."""
         from .h5io import MemoryFile
         out = MemoryFile("<hit-and-run>") if output is None else output
         self.summary = sample(problem, self.n, out, seed=self.seed, progress=self.progress,
-                              **self.options)
+                              max_seconds=max_seconds, **self.options)
         return ef.read(out)
 
     def __repr__(self) -> str:

@@ -250,11 +250,14 @@ class RelaxWalk:
         self.n, self.seed, self.tol, self.progress = n, seed, tol, progress
         self.summary: dict = {}
 
-    def run(self, problem: StaticsProblem, output=None) -> "ef.Ensemble":
+    def run(self, problem: StaticsProblem, output=None,
+            max_seconds: float | None = None) -> "ef.Ensemble":
+        """Walk through ``problem``'s S; stops early (fewer than n samples, all kept)
+        after ``max_seconds``. The run's numbers are in ``self.summary``."""
         from .h5io import MemoryFile
         out = MemoryFile("<relax>") if output is None else output
         self.summary = sample(problem, self.n, out, seed=self.seed, tol=self.tol,
-                              progress=self.progress)
+                              progress=self.progress, max_seconds=max_seconds)
         return ef.read(out)
 
     def __repr__(self) -> str:

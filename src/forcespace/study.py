@@ -11,6 +11,7 @@ counting tasks.
 """
 from __future__ import annotations
 
+import fcntl
 import importlib
 import json
 import os
@@ -89,6 +90,38 @@ def run_tasks(tasks: list[Task], out, workers: int | None = None, scheduler=None
         if bar is not None:
             bar.close()
     return [results[n] for n in names]
+
+
+def inputs_dir() -> Path:
+    """The scene files shipped with forcespace (``inputs/`` of the source tree)."""
+    return Path(__file__).resolve().parents[2] / "inputs"
+
+
+def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int):
+    """The packing jammed from ``inputs/SCENE.toml`` at (mu, seed, n_disks), made once per
+    study directory and shared by every task that needs it.
+
+    Kept as ``OUT/packings/SCENE_nN_muMU_sSEED.h5``; a worker that needs a packing
+    another worker is jamming waits for it (blocking ``flock``) instead of jamming it
+    a second time. Returns (Packing, jam wall time [s], 0 when it was reused).
+    """
+    from .jamming import jam
+    from .packing import Packing
+
+    path = Path(out) / "packings" / f"{scene}_n{n_disks}_mu{mu:.6g}_s{seed}.h5"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path.parent / f".{path.name}.jamlock", os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        if path.is_file():
+            return Packing.load(path), 0.0
+        t0 = time.perf_counter()
+        p = jam(inputs_dir() / f"{scene}.toml", physics__mu=mu, scene__seed=seed,
+                disks__n=n_disks)
+        p.save(path)
+        return p, time.perf_counter() - t0
+    finally:
+        os.close(fd)
 
 
 def _map(tasks, out, workers, scheduler):

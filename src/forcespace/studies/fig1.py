@@ -9,6 +9,7 @@ it is a property of the packing rather than of a slice's boundary.
 """
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -16,71 +17,85 @@ import numpy as np
 from ..study import Task
 
 QUICK = dict(scene="quick", n_disks=30, slice_height=12.0, mus=(0.01, 0.1, 1.0), seeds=(1, 2),
-             samples=12)
+             samples=12, max_seconds=60.0)
 FULL = dict(scene="paper", n_disks=200, slice_height=28.0,
             mus=tuple(float(m) for m in np.logspace(-4, 1, 15)), seeds=(1, 2, 3, 4, 5),
-            samples=100)
+            samples=100, max_seconds=240.0)
+N_SQUARES = 3          # frictionless packings sampled with friction switched on
+
+
+def config(quick: bool) -> dict:
+    return QUICK if quick else FULL
 
 
 def tasks(quick: bool = False) -> list[Task]:
-    cfg = QUICK if quick else FULL
+    """Own-mu packings first, then the mu = 0 packings: the accuracy floor (S at mu = 0)
+    and the squares (the same packing, S at each mu of the sweep), one task each."""
+    cfg = config(quick)
     common = dict(scene=cfg["scene"], n_disks=cfg["n_disks"], slice_height=cfg["slice_height"],
-                  samples=cfg["samples"])
-    out = []
-    for mu in cfg["mus"]:
-        for seed in cfg["seeds"]:
-            out.append(Task(f"mu{mu:.3g}_s{seed}", "forcespace.studies.fig1:packing_task",
-                            dict(common, mu=mu, seed=seed)))
-    for seed in cfg["seeds"][:3]:         # the squares: mu = 0 packings, friction switched on
-        out.append(Task(f"mu0_on_s{seed}", "forcespace.studies.fig1:packing_task",
-                        dict(common, mu=0.0, seed=seed, mu_sample=list(cfg["mus"]))))
+                  samples=cfg["samples"], max_seconds=cfg["max_seconds"])
+    out = [Task(f"mu{mu:.3g}_s{seed}", "forcespace.studies.fig1:packing_task",
+                dict(common, mu=mu, seed=seed)) for mu in cfg["mus"] for seed in cfg["seeds"]]
+    for seed in cfg["seeds"][:N_SQUARES]:
+        for ms in (0.0, *cfg["mus"]):
+            out.append(Task(f"mu0_on{ms:.3g}_s{seed}", "forcespace.studies.fig1:packing_task",
+                            dict(common, mu=0.0, seed=seed, mu_sample=ms)))
     return out
 
 
 def packing_task(scene: str, n_disks: int, slice_height: float, samples: int, mu: float,
-                 seed: int, workdir, mu_sample=None) -> dict:
-    """Jam (or reuse) a packing, analyse its slice, sample S both ways.
+                 seed: int, workdir, mu_sample=None, max_seconds=None) -> dict:
+    """Jam (or reuse) the packing (mu, seed), analyse its slice's S, sample it both ways.
 
-    ``mu_sample``: friction of S instead of the packing's (a list: one row per
-    value, all on the same packing). Returns {"rows": [one dict per S]}.
+    ``mu_sample``: friction of S instead of the packing's (the squares). Each sampler
+    stops at ``samples`` samples or after ``max_seconds`` (the number reached is in
+    the row). A determinate S (dim 0) has eta = 0 exactly for mu > 0; at mu_sample = 0
+    the relax walk is run anyway: its eta is the solver's accuracy floor.
     """
-    from .. import HitAndRun, RelaxWalk, jam, slice_problem
-    from ..packing import Packing
+    from .. import HitAndRun, RelaxWalk, slice_problem
     from ..polytope import analyze
+    from ..study import shared_packing
 
     wd = Path(workdir)
-    pfile = wd / "packing.h5"
-    inputs = Path(__file__).resolve().parents[3] / "inputs"
-    if pfile.is_file():
-        p = Packing.load(pfile)
-    else:
-        p = jam(inputs / f"{scene}.toml", physics__mu=mu, scene__seed=seed, disks__n=n_disks)
-        p.save(pfile)
+    p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks)
     rat = p.rattlers()
     live = p.force_bearing() & ((p.a < 0) | ~rat[np.maximum(p.a, 0)]) \
         & ((p.b < 0) | ~rat[np.maximum(p.b, 0)])
-    rows = []
-    for ms in (mu_sample if isinstance(mu_sample, list) else [mu_sample]):
-        prob = slice_problem(p, slice_height, mu=ms)
-        an = analyze(prob, ranges=False)
-        row = {"mu": mu, "mu_sample": mu if ms is None else ms, "seed": seed,
-               "z": p.coordination(), "n_rattlers": int(rat.sum()),
-               "nc_full": int(live.sum()), "n_full": int((~rat).sum()),
-               "dof_excess_full": int(2 * live.sum() - 3 * (~rat).sum()),
-               "slice_contacts": prob.n_contacts, "feasible": an.feasible,
-               "bounded": an.bounded, "dim_S": an.dim_S,
-               "degree_of_indeterminacy": an.degree_of_indeterminacy,
-               "eta_hit_and_run": None, "eta_relax": None}
-        tag = "" if ms is None else f"_mu{ms:.3g}"
-        if an.feasible and an.bounded and an.dim_S:
-            row["eta_hit_and_run"] = HitAndRun(n=samples, seed=seed).run(
-                prob, output=wd / f"hit_and_run{tag}.h5").eta
-            row["eta_relax"] = RelaxWalk(n=samples, seed=seed).run(
-                prob, output=wd / f"relax{tag}.h5").eta
-        elif an.feasible and an.dim_S == 0:
-            row["eta_hit_and_run"] = row["eta_relax"] = 0.0   # determinate: no ambiguity
-        rows.append(row)
-    return {"rows": rows}
+    prob = slice_problem(p, slice_height, mu=mu_sample)
+    t0 = time.perf_counter()
+    an = analyze(prob, ranges=False)
+    row = {"mu": mu, "mu_sample": mu if mu_sample is None else mu_sample, "seed": seed,
+           "z": p.coordination(), "n_rattlers": int(rat.sum()),
+           "nc_full": int(live.sum()), "n_full": int((~rat).sum()),
+           "dof_excess_full": int(2 * live.sum() - 3 * (~rat).sum()),
+           "slice_contacts": prob.n_contacts, "feasible": an.feasible,
+           "bounded": an.bounded, "dim_S": an.dim_S,
+           "degree_of_indeterminacy": an.degree_of_indeterminacy,
+           "t_jam_s": t_jam, "t_analyze_s": time.perf_counter() - t0,
+           "eta_hit_and_run": None, "eta_relax": None}
+    if not (an.feasible and an.bounded):
+        return {"rows": [row]}
+    tag = "" if mu_sample is None else f"_mu{mu_sample:.3g}"
+    runs = []
+    if an.dim_S:
+        runs.append(("hit_and_run", HitAndRun(n=samples, seed=seed)))
+    else:
+        row["eta_hit_and_run"] = 0.0                  # S is one point: no ambiguity
+    if an.dim_S or row["mu_sample"] == 0:
+        runs.append(("relax", RelaxWalk(n=samples, seed=seed)))
+    else:
+        row["eta_relax"] = 0.0
+    for name, sampler in runs:
+        t0 = time.perf_counter()
+        ens = sampler.run(prob, output=wd / f"{name}{tag}.h5", max_seconds=max_seconds)
+        row[f"eta_{name}"] = ens.eta
+        row[f"n_{name}"] = ens.n_samples
+        row[f"t_{name}_s"] = time.perf_counter() - t0
+        if name == "relax":
+            row["relax_projected"] = sampler.summary.get("n_projected")
+        else:
+            row["rhat_hit_and_run"] = sampler.summary.get("rhat_projections_max")
+    return {"rows": [row]}
 
 
 def summarize(results: list[dict], out) -> dict:
