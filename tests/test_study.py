@@ -1,6 +1,7 @@
 """Study sweeps: the quick fig1 study on the local pool and on a Dask LocalCluster."""
 import json
 
+import numpy as np
 import pytest
 
 from forcespace.cli import main
@@ -21,13 +22,29 @@ def test_fig1_quick_local_pool_resumes_and_equals_dask(tmp_path, capsys):
     assert main(["study", "fig1", "--quick", "--workers", "2", "-o", str(local),
                  "--quiet"]) == 0
     summary = json.loads(capsys.readouterr().out)
-    assert summary["failed"] == 0 and summary["rows"] == 12
+    assert summary["failed"] == 0 and summary["rows"] == 14
     assert (local / "fig1.csv").is_file() and (local / "fig1.png").is_file()
+    assert (local / "fig1.pdf").is_file() and len(summary["verdicts"]) >= 6
+    # the report beside the study directory names every claim with its verdict
+    report = (tmp_path / "REPORT.md").read_text()
+    verdicts = json.loads((local / "verdicts.json").read_text())["verdicts"]
+    for v in verdicts:
+        assert v["claim"] in report and v["verdict"] in ("reproduced", "refuted",
+                                                         "not decidable")
+    assert "(local/fig1.png)" in report
     tasks = fig1.tasks(quick=True)
     done = run_tasks(tasks, local, progress=False)        # everything is skipped now
     # physics of the quick sweep: z falls with mu, frictionless packings are isostatic
     r = rows(done)
     assert all(x["z"] == 4.0 for x in r if x["mu"] == 0.0)
+    z = {x["mu"]: x["z"] for x in r if x["seed"] == 1 and x["mu"] > 0}
+    assert z[0.01] > z[0.1] > z[1.0] > 3.0
+    # the accuracy floor: frictionless S is a point, the walk's spread is round-off
+    floor = [x["eta_relax"] for x in r if x["mu"] == 0.0 and x["mu_sample"] == 0.0]
+    assert len(floor) == 2 and all(0 <= e < 1e-8 for e in floor)
+    # the packing of each (mu, seed) was jammed once and shared by its tasks
+    assert sorted(p.name for p in (local / "packings").glob("*.h5")) == sorted(
+        f"quick_n30_mu{mu:.6g}_s{s}.h5" for mu in (0, 0.01, 0.1, 1.0) for s in (1, 2))
     assert all(x["dim_S"] >= 0 and x["eta_hit_and_run"] >= 0 for x in r)
     # with friction switched on, eta of the same packing grows with mu (the squares)
     for seed in (1, 2):
@@ -55,3 +72,50 @@ def test_a_failing_task_is_a_result_and_names_must_be_unique(tmp_path):
     from forcespace.errors import InputError
     with pytest.raises(InputError, match="unique"):
         run_tasks([bad, bad], tmp_path, progress=False)
+
+
+def test_slope_and_argmax_helpers_recover_known_answers():
+    mu = np.logspace(-4, -2, 5)
+    slope, se = fig1.slope_fit(np.repeat(mu, 3), np.repeat(3.0 * mu ** 1.0, 3)
+                               * np.exp(np.tile([-0.01, 0.0, 0.01], 5)))
+    assert abs(slope - 1.0) < 1e-3 and se < 0.01
+    peak = {0.01: np.array([1.0, 1.1]), 0.1: np.array([5.0, 5.2]), 1.0: np.array([2.0, 2.1])}
+    m, lo, hi = fig1.argmax_bootstrap(peak)
+    assert m == lo == hi == 0.1
+
+
+@pytest.mark.slow
+def test_fig3_quick_distances_boundary_and_uniformity(tmp_path, capsys):
+    out = tmp_path / "fig3"
+    assert main(["study", "fig3", "--quick", "--workers", "2", "-o", str(out), "--quiet"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["failed"] == 0 and summary["usable"] == 3
+    assert (out / "fig3.png").is_file() and (out / "fig3.pdf").is_file()
+    tasks = sorted((out / "tasks").glob("*.json"))
+    for f in tasks:
+        r = json.loads(f.read_text())
+        assert r["dim_S"] >= 2 and r["n_hit_and_run"] == r["n_relax"] == 16
+        for a in ("hit_and_run", "relax"):
+            # own centre: the mean distance in units of itself is 1 by construction
+            assert np.mean(r[f"l_{a}_centre_{a}"]) == pytest.approx(1.0, rel=1e-12)
+        # uniform samples are in the interior almost surely; Gauss-Seidel ends every
+        # relaxation on the Coulomb surface of some contact
+        assert r["on_boundary_fraction_hit_and_run"] == 0.0
+        assert r["on_boundary_fraction_relax"] == 1.0
+        # two uniform runs agree on eta far better than the walk and hit-and-run
+        assert abs(np.log(r["eta_null"] / r["eta_hit_and_run"])) < 0.35
+    report = (tmp_path / "REPORT.md").read_text()
+    assert "(fig3/fig3.png)" in report and "uniformly" in report
+
+
+def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
+    from forcespace.studies.report import Verdict, write_section
+    with pytest.raises(ValueError, match="verdict"):
+        Verdict("x", "claim", "ours", "probably")
+    for name in ("fig3", "fig1"):
+        (tmp_path / name).mkdir()
+        write_section(tmp_path / name, name, f"Title {name}", "text",
+                      [Verdict(name, f"claim {name}", "42", "refuted")], {"n": 1}, ["a.png"])
+    report = (tmp_path / "REPORT.md").read_text()
+    assert report.index("Title fig1") < report.index("Title fig3")
+    assert "| fig1 | claim fig1 | 42 | **refuted** |" in report

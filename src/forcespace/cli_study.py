@@ -14,8 +14,8 @@ def register(sub) -> None:
     p.add_argument("--workers", type=int, default=None, metavar="K",
                    help="local worker processes (default: the number of cores)")
     p.add_argument("-o", "--output", default=None, metavar="DIR",
-                   help="study directory (default studies/results/NAME; with --quick "
-                        "studies/out/NAME-quick)")
+                   help="study directory (default studies/NAME; with --quick "
+                        "studies/out/NAME-quick); REPORT.md is written beside it")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_study)
 
@@ -30,7 +30,7 @@ def cmd_study(args) -> int:
         require_int("--workers", "workers", args.workers, 1)
     mod = importlib.import_module(STUDIES[args.name])
     out = args.output or (f"studies/out/{args.name}-quick" if args.quick
-                          else f"studies/results/{args.name}")
+                          else f"studies/{args.name}")
     results = run_tasks(mod.tasks(args.quick), out, workers=args.workers,
                         scheduler=args.scheduler, progress=not args.quiet)
     print_json(mod.summarize(results, out))

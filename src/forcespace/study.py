@@ -18,11 +18,15 @@ import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from multiprocessing import get_context
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import ForcespaceError, InputError
 from .h5io import atomic_path
+
+
+BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 @dataclass(frozen=True)
@@ -149,7 +153,18 @@ def _map(tasks, out, workers, scheduler):
         for t in tasks:
             yield execute(t, out)
         return
-    with ProcessPoolExecutor(max_workers=n) as pool:
-        futures = [pool.submit(execute, t, out) for t in tasks]
-        for f in as_completed(futures):
-            yield f.result()
+    # fresh interpreters with one BLAS thread each: n workers on n cores; forked
+    # workers would inherit the parent's BLAS thread pools and oversubscribe the cores
+    saved = {k: os.environ.get(k) for k in BLAS_THREAD_VARIABLES}
+    os.environ.update({k: "1" for k in BLAS_THREAD_VARIABLES})
+    try:
+        with ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn")) as pool:
+            futures = [pool.submit(execute, t, out) for t in tasks]
+            for f in as_completed(futures):
+                yield f.result()
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
