@@ -47,6 +47,28 @@ def grooves(thetas, mu, W=1.0):
     return p, prob
 
 
+def shared_support_grooves(theta_a, theta_b, mu, W=1.0):
+    """Two loaded disks, each in its own groove, the middle support disk shared:
+    one connected contact network with two independent elementary clusters.
+
+    Supports S1 (0), S2 (1), S3 (2) at y = 0; disk A (3) on S1, S2 at angle
+    theta_a, disk B (4) on S2, S3 at theta_b (A and B do not touch for
+    theta_a, theta_b >= 30 deg). Contacts: 0 = S1-A, 1 = S2-A, 2 = S2-B, 3 = S3-B.
+    Returns (packing, problem).
+    """
+    sa, sb = np.sin(theta_a), np.sin(theta_b)
+    xs = [-4 * sa, 0.0, 4 * sb, -2 * sa, 2 * sb]
+    ys = [0.0, 0.0, 0.0, 2 * np.cos(theta_a), 2 * np.cos(theta_b)]
+    a, b = [0, 1, 1, 2], [3, 3, 4, 4]
+    fn = [W / (2 * np.cos(theta_a))] * 2 + [W / (2 * np.cos(theta_b))] * 2
+    p = _packing(np.array(xs) + 20.0, ys, np.ones(5), a, b, fn, np.zeros(4), mu,
+                 gravity=W / np.pi)
+    interior = np.array([False, False, False, True, True])
+    prob = build_problem(p, interior, (), "test", support_mask=~interior,
+                         rattlers=np.zeros(5, bool))
+    return p, prob
+
+
 def groove(theta, mu, W=1.0):
     return grooves([theta], mu, W)
 

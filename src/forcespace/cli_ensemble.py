@@ -51,6 +51,9 @@ def cmd_analyze(args) -> int:
     if args.ranges and an.fn_range is not None:
         out["fn_range"] = an.fn_range
         out["ft_range"] = an.ft_range
+    if args.clusters and an.feasible and an.dim_S:
+        from .clusters import decompose
+        out["clusters"] = decompose(problem, an, packing).summary()
     out["wall_time_s"] = time.perf_counter() - t0
     print_result(out, args.json)
     return 0
@@ -121,6 +124,9 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("analyze", help="exact analysis of the force ensemble S (LPs)")
     p.add_argument("packing", metavar="PACK.h5")
     _add_problem_args(p)
+    p.add_argument("--clusters", action="store_true",
+                   help="decompose the indeterminacy into elementary clusters (sizes, density "
+                        "rho per interior disk, percolating domains)")
     p.add_argument("--ranges", action="store_true",
                    help="also compute per-contact min/max of fn and ft (4 LPs per contact)")
     p.add_argument("--json", action="store_true", help="print JSON")

@@ -28,9 +28,18 @@ def register(sub):
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_info)
 
-    p = sub.add_parser("draw", help="draw a packing and its force network")
+    p = sub.add_parser("draw", help="draw a packing and its force network, or (with "
+                       "--difference) the paper's Fig. 2")
     p.add_argument("packing")
     p.add_argument("-o", "--output", required=True, help="figure file (.png also writes .pdf)")
+    p.add_argument("--difference", action="store_true",
+                   help="draw the difference of two admissible networks of S (two vertices "
+                        "of S far apart), domains outlined in colour, elementary clusters "
+                        "dashed (the paper's Fig. 2)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="with --difference: seed of the random direction picking the vertices")
+    from .cli_ensemble import _add_problem_args
+    _add_problem_args(p)
     p.set_defaults(func=cmd_draw)
 
 
@@ -80,6 +89,29 @@ def cmd_draw(args) -> int:
 
     for target in figure_targets(args.output):
         check_output_file(target, inputs=[args.packing])
-    draw_packing(read_packing(args.packing), args.output)
-    print(f"wrote {args.output}")
+    if not args.difference:
+        draw_packing(read_packing(args.packing), args.output)
+        print(f"wrote {args.output}")
+        return 0
+    from .cli import print_result
+    from .cli_ensemble import load_problem
+    from .clusters import decompose, extreme_pair
+    from .draw import plot_difference, save_figure
+    from .polytope import analyze
+
+    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
+    an = analyze(problem, ranges=False)
+    if not (an.feasible and an.bounded and an.dim_S):
+        raise InputError(args.packing, "S", "must be non-empty, bounded and of dimension >= 1 "
+                         "for a difference of two networks", got=f"feasible={an.feasible}, "
+                         f"bounded={an.bounded}, dim S={an.dim_S}")
+    dec = decompose(problem, an, packing)
+    x1, x2 = extreme_pair(problem, an, args.seed)
+    mu = packing.mu if args.mu is None else args.mu
+    ax = plot_difference(packing, problem, x1, x2, dec.domains, clusters=dec.clusters,
+                         title=f"mu = {mu:g}: x2 - x1 (fn), dim S = {an.dim_S}, "
+                               f"{dec.n_elementary} elementary clusters")
+    ax.figure.tight_layout()
+    save_figure(ax.figure, args.output)
+    print_result({"figure": str(args.output), **dec.summary()}, False)
     return 0

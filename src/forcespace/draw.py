@@ -80,10 +80,7 @@ def plot_packing(p: Packing, ax=None, values=None, signed: bool = False,
         ax.add_collection(LineCollection(seg + np.array([s * p.width, 0]), linewidths=widths,
                                          colors=colors))
     for q, disks in enumerate(highlight or []):
-        colour = f"C{q % 10}"
-        ax.add_collection(PatchCollection(
-            [Circle((p.x[i] + s * p.width, p.y[i]), p.r[i]) for s in shifts for i in disks],
-            facecolor="none", edgecolor=colour, linewidth=1.6))
+        outline(ax, p, disks, f"C{q % 10}")
     for yy in (p.y_bottom, p.y_top):
         if np.isfinite(yy):
             ax.axhline(yy, color="0.2", lw=2)
@@ -98,17 +95,34 @@ def plot_packing(p: Packing, ax=None, values=None, signed: bool = False,
     return ax
 
 
+def outline(ax, p: Packing, disks, colour, linestyle="-", linewidth=1.6):
+    """Outline the disks ``disks`` (packing indices) on ``ax`` (periodic images too)."""
+    from matplotlib.collections import PatchCollection
+    from matplotlib.patches import Circle
+
+    shifts = [-1, 0, 1] if p.periodic_x else [0]
+    ax.add_collection(PatchCollection(
+        [Circle((p.x[i] + s * p.width, p.y[i]), p.r[i]) for s in shifts for i in disks],
+        facecolor="none", edgecolor=colour, linewidth=linewidth, linestyle=linestyle))
+
+
 def plot_difference(packing: Packing, problem, x1, x2, domains=None, ax=None,
-                    title: str | None = None):
+                    title: str | None = None, clusters=None):
     """The signed difference x2 - x1 of two networks of ``problem`` (each (2m,) [F0]):
     normal-force differences red (+) / blue (-), width by magnitude, with the
-    disks of each domain (:class:`forcespace.measures.Domain`) outlined. Returns the Axes."""
+    disks of each domain (:class:`forcespace.measures.Domain`) outlined, and the
+    elementary clusters (:class:`forcespace.clusters.Cluster` with ``elementary``)
+    inside them dashed in black. Returns the Axes."""
     d = np.zeros(packing.n_contacts)
     diff = np.asarray(x2, float) - np.asarray(x1, float)
     d[problem.contacts] = diff[0::2]
-    return plot_packing(packing, ax, values=d, signed=True,
-                        highlight=[g.disks for g in (domains or [])],
-                        title=title or "difference of two admissible networks (fn)")
+    ax = plot_packing(packing, ax, values=d, signed=True,
+                      highlight=[g.disks for g in (domains or [])],
+                      title=title or "difference of two admissible networks (fn)")
+    for c in clusters or []:
+        if c.elementary:
+            outline(ax, packing, c.disks, "k", linestyle="--", linewidth=0.9)
+    return ax
 
 
 def draw_packing(p: Packing, path, title: str | None = None, values=None,

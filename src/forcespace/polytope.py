@@ -674,6 +674,18 @@ def chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
     return x * s, r * s
 
 
+def extreme_point(problem: StaticsProblem, c) -> np.ndarray:
+    """A vertex of S maximising ``c @ x`` (c (2m,)), by one LP at <Fn> = 1 [F0].
+    NumericalError if S is empty or unbounded in that direction."""
+    P, s = _unit(problem)
+    G, _, _ = P.inequalities()
+    res = _lp(-np.asarray(c, float), G, np.zeros(G.shape[0]), P.A, P.b,
+              _bounds_list(*P.bounds()))
+    if res.status != 0:
+        raise NumericalError(f"extreme point of S: LP failed ({res.message})")
+    return res.x * s
+
+
 def distance_to_S(problem: StaticsProblem, x, analysis: PolytopeAnalysis | None = None
                   ) -> DistanceResult:
     """Exact Euclidean distance from ``x`` (2m,) [F0] to S (see :class:`DistanceResult`).
