@@ -119,3 +119,26 @@ def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
     report = (tmp_path / "REPORT.md").read_text()
     assert report.index("Title fig1") < report.index("Title fig3")
     assert "| fig1 | claim fig1 | 42 | **refuted** |" in report
+
+
+@pytest.mark.slow
+def test_fig2_quick_clusters_per_packing(tmp_path, capsys):
+    out = tmp_path / "fig2"
+    assert main(["study", "fig2", "--quick", "--workers", "2", "-o", str(out), "--quiet"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["failed"] == 0 and "fig2.png" in summary["figures"]
+    rows = [json.loads(f.read_text()) for f in sorted((out / "tasks").glob("*.json"))]
+    assert len(rows) == 6
+    for r in rows:
+        if not r["dim_S"]:
+            continue
+        # a circuit basis: as many clusters as degrees of freedom, split over the domains
+        assert r["n_clusters"] == r["dim_S"] == sum(r["domain_dims"])
+        assert r["density_rho"] == pytest.approx(r["n_elementary"] / r["slice_disks"])
+        assert 0 < r["largest_domain_fraction"] <= r["varying_fraction"] <= 1
+        # the elementary clusters (one degree of freedom) have >= 2 contacts each
+        assert all(s >= 2 for s in r["elementary_sizes_contacts"])
+    # localisation: the largest domain is smaller at mu = 1 than at mu = 0.01
+    big = {r["mu"]: r["largest_domain_fraction"] for r in rows if r["seed"] == 1}
+    assert big[1.0] < big[0.01]
+    assert "Fig. 2" in (tmp_path / "REPORT.md").read_text()

@@ -101,18 +101,25 @@ def inputs_dir() -> Path:
     return Path(__file__).resolve().parents[2] / "inputs"
 
 
-def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int):
+def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_from=()):
     """The packing jammed from ``inputs/SCENE.toml`` at (mu, seed, n_disks), made once per
     study directory and shared by every task that needs it.
 
     Kept as ``OUT/packings/SCENE_nN_muMU_sSEED.h5``; a worker that needs a packing
     another worker is jamming waits for it (blocking ``flock``) instead of jamming it
-    a second time. Returns (Packing, jam wall time [s], 0 when it was reused).
+    a second time. ``reuse_from``: names of sibling study directories (e.g. "fig1")
+    whose packings are read instead when they have it. Returns (Packing, jam wall
+    time [s], 0 when it was reused).
     """
     from .jamming import jam
     from .packing import Packing
 
-    path = Path(out) / "packings" / f"{scene}_n{n_disks}_mu{mu:.6g}_s{seed}.h5"
+    name = f"{scene}_n{n_disks}_mu{mu:.6g}_s{seed}.h5"
+    for other in reuse_from:
+        theirs = Path(out).parent / other / "packings" / name
+        if theirs.is_file():
+            return Packing.load(theirs), 0.0
+    path = Path(out) / "packings" / name
     path.parent.mkdir(parents=True, exist_ok=True)
     fd = os.open(path.parent / f".{path.name}.jamlock", os.O_RDWR | os.O_CREAT, 0o666)
     try:

@@ -261,23 +261,12 @@ def _closer_verdict(m, p) -> str:
 def _section_panel(ax, row, out) -> None:
     """The inset: the cross-section of S through the first packing's jammed network."""
     from .. import section, slice_problem
-    from ..packing import Packing
+    from ..study import shared_packing
 
-    cfg_path = Path(out) / "packings"
-    files = sorted(cfg_path.glob(f"*_s{row['seed']}.h5"))
-    if not files:
-        ax.set_axis_off()
-        return
-    prob = slice_problem(Packing.load(files[0]), _slice_height(out))
-    sec = section(prob, n=121, seed=row["seed"])
+    par = row["params"]
+    p, _ = shared_packing(out, par["scene"], par["mu"], par["seed"], par["n_disks"])
+    sec = section(slice_problem(p, par["slice_height"]), n=121, seed=row["seed"])
     sec.plot(ax, title=f"cross-section of S, seed {row['seed']} (dim S = {row['dim_S']})")
-
-
-def _slice_height(out) -> float:
-    import json
-    for f in sorted((Path(out) / "tasks").glob("*.json")):
-        return float(json.loads(f.read_text())["params"]["slice_height"])
-    return FULL["slice_height"]
 
 
 def _section_text(numbers: dict, rows: list[dict]) -> str:
