@@ -5,3 +5,4 @@ ROOT = Path(__file__).resolve().parents[1]
 QUICK = ROOT / "inputs" / "quick.toml"
 PAPER = ROOT / "inputs" / "paper.toml"
 PACKINGS = ROOT / "studies" / "packings"
+INPUTS = ROOT / "inputs"

@@ -142,3 +142,38 @@ def test_fig2_quick_clusters_per_packing(tmp_path, capsys):
     big = {r["mu"]: r["largest_domain_fraction"] for r in rows if r["seed"] == 1}
     assert big[1.0] < big[0.01]
     assert "Fig. 2" in (tmp_path / "REPORT.md").read_text()
+
+
+@pytest.mark.slow
+def test_pointforce_quick_and_report_only(tmp_path, capsys):
+    out = tmp_path / "pointforce"
+    assert main(["study", "pointforce", "--quick", "--workers", "2", "-o", str(out),
+                 "--quiet"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["failed"] == 0
+    rows = [json.loads(f.read_text()) for f in sorted((out / "tasks").glob("*.json"))]
+    for r in rows:
+        # the settled layer is at rest: without the force nothing moves
+        assert r.get("control_max_displacement", 0.0) < 0.01
+        if not r["carries_any_force"] and r["push_depth"] is not None:
+            assert r["push_displaced"] >= 1 and r["push_max_displacement"] > 0.1
+    assert summary["pushed"] >= 2
+    # summarising again without running anything gives the same report
+    before = (tmp_path / "REPORT.md").read_text()
+    assert main(["study", "pointforce", "--quick", "-o", str(out), "--report-only"]) == 0
+    assert (tmp_path / "REPORT.md").read_text() == before
+
+
+def test_max_point_force_is_where_rigid_disks_start_to_move():
+    import forcespace as fs
+    from forcespace.pointforce import max_point_force, push, surface_disk
+    from paths import INPUTS
+    p = fs.jam(INPUTS / "layer.toml", physics__mu=0.1, physics__plate_mu=0.1, disks__n=40,
+               box__width=20.0)
+    k = surface_disk(p)
+    f_star = max_point_force(p, k)
+    assert np.isfinite(f_star) and f_star > 0
+    below = push(p, k, 0.9 * f_star)          # the network carries it: no rearrangement
+    assert below.at_rest and below.displacement.max() < 0.01
+    above = push(p, k, 1.05 * f_star)         # it cannot: disks give way by > 0.1 R
+    assert above.displacement.max() > 0.1

@@ -16,6 +16,9 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", default=None, metavar="DIR",
                    help="study directory (default studies/NAME; with --quick "
                         "studies/out/NAME-quick); REPORT.md is written beside it")
+    p.add_argument("--report-only", action="store_true",
+                   help="run nothing: summarise the tasks already done in the study directory "
+                        "(tables, figures, verdicts) and rebuild REPORT.md")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_study)
 
@@ -24,14 +27,17 @@ def cmd_study(args) -> int:
     from .cli import print_json
     from .errors import require_int
     from .studies import STUDIES
-    from .study import run_tasks
+    from .study import done_tasks, run_tasks
 
     if args.workers is not None:
         require_int("--workers", "workers", args.workers, 1)
     mod = importlib.import_module(STUDIES[args.name])
     out = args.output or (f"studies/out/{args.name}-quick" if args.quick
                           else f"studies/{args.name}")
-    results = run_tasks(mod.tasks(args.quick), out, workers=args.workers,
-                        scheduler=args.scheduler, progress=not args.quiet)
+    if args.report_only:
+        results = done_tasks(mod.tasks(args.quick), out)
+    else:
+        results = run_tasks(mod.tasks(args.quick), out, workers=args.workers,
+                            scheduler=args.scheduler, progress=not args.quiet)
     print_json(mod.summarize(results, out))
     return 0

@@ -686,6 +686,32 @@ def extreme_point(problem: StaticsProblem, c) -> np.ndarray:
     return res.x * s
 
 
+def max_load_factor(problem: StaticsProblem, d) -> float:
+    """The largest lambda >= 0 for which S stays non-empty when the loads grow by
+    lambda d: max lambda s.t. A x = b + lambda d, Coulomb, fn >= 0 (one LP at <Fn> = 1).
+
+    d (3n,) is in the units of b: row 3i+1 = +1 adds a downward unit force on the
+    centre of interior disk i (b holds minus the loads). Returns lambda [F0 per unit
+    of d]; inf when every lambda is admissible (the network carries any such load);
+    0 when S is already empty.
+    """
+    P, s = _unit(problem)
+    G, _, _ = P.inequalities()
+    m2 = P.n_columns
+    c = np.zeros(m2 + 1)
+    c[-1] = -1.0
+    A_eq = sp.hstack([P.A, sp.csr_matrix(-np.asarray(d, float).reshape(-1, 1))]).tocsr()
+    A_ub = sp.hstack([G, sp.csr_matrix((G.shape[0], 1))]).tocsr()
+    res = _lp(c, A_ub, np.zeros(G.shape[0]), A_eq, P.b, _bounds_list(*P.bounds()) + [(0, None)])
+    if res.status == 3:
+        return float("inf")
+    if res.status == 2:
+        return 0.0
+    if res.status != 0:
+        raise NumericalError(f"max load factor: LP failed ({res.message})")
+    return float(res.x[-1] * s)
+
+
 def distance_to_S(problem: StaticsProblem, x, analysis: PolytopeAnalysis | None = None
                   ) -> DistanceResult:
     """Exact Euclidean distance from ``x`` (2m,) [F0] to S (see :class:`DistanceResult`).

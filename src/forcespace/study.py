@@ -65,6 +65,12 @@ def execute(task: Task, out: str) -> dict:
     return result
 
 
+def done_tasks(tasks: list[Task], out) -> list[dict]:
+    """The results of the tasks already done under ``out``, in task order."""
+    return [json.loads(t.result_path(out).read_text()) for t in tasks
+            if t.result_path(out).is_file()]
+
+
 def run_tasks(tasks: list[Task], out, workers: int | None = None, scheduler=None,
               progress: bool = True) -> list[dict]:
     """Run the tasks not yet done under ``out``; returns all results in task order."""
@@ -72,14 +78,8 @@ def run_tasks(tasks: list[Task], out, workers: int | None = None, scheduler=None
     names = [t.name for t in tasks]
     if len(set(names)) != len(names):
         raise InputError("study", "tasks", "task names must be unique")
-    results = {}
-    todo = []
-    for t in tasks:
-        p = t.result_path(out)
-        if p.is_file():
-            results[t.name] = json.loads(p.read_text())
-        else:
-            todo.append(t)
+    results = {r["task"]: r for r in done_tasks(tasks, out)}
+    todo = [t for t in tasks if t.name not in results]
     bar = None
     if progress:
         from tqdm import tqdm
@@ -101,15 +101,18 @@ def inputs_dir() -> Path:
     return Path(__file__).resolve().parents[2] / "inputs"
 
 
-def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_from=()):
+def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_from=(),
+                   overrides=None):
     """The packing jammed from ``inputs/SCENE.toml`` at (mu, seed, n_disks), made once per
     study directory and shared by every task that needs it.
 
     Kept as ``OUT/packings/SCENE_nN_muMU_sSEED.h5``; a worker that needs a packing
     another worker is jamming waits for it (blocking ``flock``) instead of jamming it
     a second time. ``reuse_from``: names of sibling study directories (e.g. "fig1")
-    whose packings are read instead when they have it. Returns (Packing, jam wall
-    time [s], 0 when it was reused).
+    whose packings are read instead when they have it. ``overrides``: further scene
+    keys (``jam`` style, e.g. ``{"physics__plate_mu": mu}``) that must be a function
+    of (scene, mu, seed, n_disks), since the file name does not record them.
+    Returns (Packing, jam wall time [s], 0 when it was reused).
     """
     from .jamming import jam
     from .packing import Packing
@@ -128,7 +131,7 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
             return Packing.load(path), 0.0
         t0 = time.perf_counter()
         p = jam(inputs_dir() / f"{scene}.toml", physics__mu=mu, scene__seed=seed,
-                disks__n=n_disks)
+                disks__n=n_disks, **(overrides or {}))
         p.save(path)
         return p, time.perf_counter() - t0
     finally:
