@@ -288,6 +288,7 @@ def _verdicts(own, squares, floor, floor_rows, eta, z, dim, ratio_doi):
             + (f"{mxr['mu']:.3g} ({mxr['ci95'][0]:.3g}-{mxr['ci95'][1]:.3g}; relax walk); "
                if mxr else "")
             + f"eta there {mx['eta_max']:.3g}, at mu = {max(eta['hit_and_run']):g}: {at10:.3g}",
+            "not decidable" if max(eta["hit_and_run"]) < 1 else     # sweep not done yet
             "reproduced" if inside and at10 < mx["eta_max"] else "refuted"))
     # coordination
     zlo, zhi = min(z), max(z)
@@ -303,6 +304,7 @@ def _verdicts(own, squares, floor, floor_rows, eta, z, dim, ratio_doi):
     verdicts.append(Verdict(
         "fig1", "z falls towards ≈ 3 at large mu",
         f"z = {z[zhi].mean():.3f} ± {z[zhi].std():.3f} at mu = {zhi:g}",
+        "not decidable" if zhi < 1 else                             # sweep not done yet
         "reproduced" if 2.9 <= z[zhi].mean() <= 3.35 else "refuted"))
     # squares: monotonic
     sq_ok, sq_n, worst = 0, 0, 1.0
