@@ -106,6 +106,19 @@ def test_fig3_quick_distances_boundary_and_uniformity(tmp_path, capsys):
         assert abs(np.log(r["eta_null"] / r["eta_hit_and_run"])) < 0.35
     report = (tmp_path / "REPORT.md").read_text()
     assert "(fig3/fig3.png)" in report and "uniformly" in report
+    # one task through a Dask cluster on loopback gives the same numbers
+    distributed = pytest.importorskip("distributed")
+    from forcespace.studies import fig3
+    task = fig3.tasks(quick=True)[0]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  protocol="tcp", host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        (remote,) = run_tasks([task], tmp_path / "dask", scheduler=cluster.scheduler_address,
+                              progress=False)
+    local = json.loads(task.result_path(out).read_text())
+    for key in ("dim_S", "eta_hit_and_run", "eta_relax", "l0_centre_relax_lbar_relax",
+                "ks_relax_vs_hit_and_run"):
+        assert remote[key] == local[key]
 
 
 def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):

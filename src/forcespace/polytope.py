@@ -31,9 +31,20 @@ VARY_TOL = 1e-6   # a contact varies in S if its fn or ft can change by more tha
 # ----------------------------------------------------------------------------
 # LP helpers
 # ----------------------------------------------------------------------------
+# HiGHS set-ups tried in turn when one ends without an answer (status 1 or 4: iteration
+# limit, numerical difficulties, or HiGHS's "model status unknown", seen on ill-conditioned
+# slices at mu >= 0.4): the default, dual simplex without presolve, interior point.
+LP_ATTEMPTS = (("highs", {}), ("highs-ds", {"presolve": False}), ("highs-ipm", {}))
+
+
 def _lp(c, A_ub=None, b_ub=None, A_eq=None, b_eq=None, bounds=None):
-    res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds,
-                  method="highs")
+    """scipy/HiGHS linprog; status 0 optimal, 2 infeasible, 3 unbounded are answers,
+    anything else is retried with the next of LP_ATTEMPTS (the last result is returned)."""
+    for method, options in LP_ATTEMPTS:
+        res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds,
+                      method=method, options=options)
+        if res.status in (0, 2, 3):
+            break
     return res
 
 
