@@ -120,3 +120,20 @@ def test_two_grooves_have_product_structure():
     _, prob = grooves([0.4, 0.6], 0.2)
     an = analyze(prob)
     assert an.dim_S == 2 and an.degree_of_indeterminacy == 2 * 4 - 3 * 2
+
+
+def test_l1_nearest_network_on_the_groove_segment_is_exact():
+    from forcespace.polytope import l1_nearest
+    th, mu, W = np.pi / 6, 0.3, 1.0
+    _, prob = groove(th, mu, W)
+    lo, hi = groove_interval(th, mu, W)
+    p0 = np.array([W / (2 * np.cos(th)), 0, W / (2 * np.cos(th)), 0])
+    q = np.array([-np.tan(th), 1, -np.tan(th), -1])
+    s_grid = np.linspace(lo, hi, 200001)
+    rng = np.random.default_rng(5)
+    for _ in range(4):
+        xh = p0 + rng.normal(scale=0.5, size=4)
+        y = l1_nearest(prob, xh)
+        assert prob.violation(y) <= 1e-12                     # exactly in S ...
+        best = np.abs(p0 + s_grid[:, None] * q - xh).sum(1).min()
+        assert np.abs(y - xh).sum() == pytest.approx(best, abs=1e-5)   # ... and L1-nearest

@@ -697,6 +697,36 @@ def extreme_point(problem: StaticsProblem, c) -> np.ndarray:
     return res.x * s
 
 
+def l1_nearest(problem: StaticsProblem, x) -> np.ndarray:
+    """The network of S nearest to x (2m,) in the L1 norm [F0]: one LP at <Fn> = 1
+    (min sum t, -t <= y - x <= t, y in S), exact where the Euclidean projection's
+    verification fails on ill-conditioned slices. NumericalError if S is empty."""
+    P, s = _unit(problem)
+    G, _, _ = P.inequalities()
+    m2 = P.n_columns
+    xs = np.asarray(x, float) / s
+    eye = sp.identity(m2, format="csr")
+    c = np.concatenate([np.zeros(m2), np.ones(m2)])
+    A_ub = sp.vstack([sp.hstack([G, sp.csr_matrix((G.shape[0], m2))]),
+                      sp.hstack([eye, -eye]), sp.hstack([-eye, -eye])]).tocsr()
+    b_ub = np.concatenate([np.zeros(G.shape[0]), xs, -xs])
+    A_eq = sp.hstack([P.A, sp.csr_matrix((P.A.shape[0], m2))]).tocsr()
+    res = _lp(c, A_ub, b_ub, A_eq, P.b, _bounds_list(*P.bounds()) + [(0, None)] * m2)
+    if res.status != 0:
+        raise NumericalError(f"L1-nearest network of S: LP failed ({res.message})")
+    # HiGHS is feasible to 1e-7 only: move exactly onto the equalities and the rows the
+    # LP left tight (a minimum-norm step of that size; the other rows keep their slack)
+    y = res.x[:m2]
+    fixed = P.fixed_columns()
+    E_fix = np.zeros((fixed.size, m2))
+    E_fix[np.arange(fixed.size), fixed] = 1.0
+    Gd = G.toarray()
+    tight = np.flatnonzero(Gd @ y > -1e-6)
+    y = _eq_projection(y, np.vstack([P.A.toarray(), E_fix]),
+                       np.concatenate([P.b, np.zeros(fixed.size)]), Gd[tight])
+    return y * s
+
+
 def max_load_factor(problem: StaticsProblem, d) -> float:
     """The largest lambda >= 0 for which S stays non-empty when the loads grow by
     lambda d: max lambda s.t. A x = b + lambda d, Coulomb, fn >= 0 (one LP at <Fn> = 1).

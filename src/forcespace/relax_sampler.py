@@ -21,7 +21,10 @@ keep sliding (a fixed point of the sweep that is not in S), most often at
 large mu. Such a relaxation (no 1 % progress in ``stall_sweeps`` sweeps, or
 ``max_sweeps`` reached) is finished by the exact Euclidean projection of its
 forces onto S (:func:`forcespace.polytope.distance_to_S`, KKT-verified): the
-admissible network nearest to where the walk got stuck. Every such sample is
+admissible network nearest to where the walk got stuck; where that projection
+cannot be verified (ill-conditioned slices at large mu), by the network of S
+nearest in the L1 norm (one LP, :func:`forcespace.polytope.l1_nearest`),
+counted as ``n_projected_l1``. Every such sample is
 counted (``n_projected`` in the checkpoint attributes and the summary) and
 listed (``checkpoint/projected``: indices of the projected samples). Finished samples are written before any error propagates.
 
@@ -40,7 +43,7 @@ import numpy as np
 
 from . import ensemble_file as ef
 from .errors import InputError, NumericalError, require_int
-from .polytope import check_bounded, check_feasible, distance_to_S
+from .polytope import check_bounded, check_feasible, distance_to_S, l1_nearest
 from .relaxation import FrozenContacts, relax
 from .statics import StaticsProblem
 
@@ -59,6 +62,7 @@ class Relaxer:
         self.problem = p
         self.system = frozen_contacts(p)
         self.mu = self.system.mu
+        self.n_l1 = 0          # stalls finished by the L1-nearest network (see relax)
 
     def relax(self, x, tol=DEFAULT_TOL, chunk=200, max_sweeps=2_000_000, seed=0,
               stall_sweeps=STALL_SWEEPS):
@@ -85,7 +89,15 @@ class Relaxer:
         out[1::2] = rt
         if res.converged:
             return out.copy(), res, False
-        nearest = distance_to_S(self.problem, out).nearest
+        try:
+            nearest = distance_to_S(self.problem, out).nearest
+        except NumericalError as exc:   # unverifiable on an ill-conditioned slice: L1 by LP
+            nearest = l1_nearest(self.problem, out)
+            self.n_l1 += 1
+            v = self.problem.violation(nearest)
+            if not v <= tol:
+                raise NumericalError(f"{exc}; the L1-nearest network violates S by "
+                                     f"{v:.2e} <Fn> (> tol = {tol:g})") from exc
         return nearest, res, True
 
 
@@ -231,6 +243,7 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
     return {"n_samples": ens.n_samples, "wall_time_s": time.perf_counter() - t0,
             "max_violation": float(ens.violations.max(initial=0.0)),
             "sweeps_total": sweeps_total, "n_projected": len(projected_idx),
+            "n_projected_l1": relaxer.n_l1,
             "projected_convention": "samples whose relaxation stalled (non-static fixed "
                                     "point) and were finished by the exact projection onto S",
             "params": params}
