@@ -43,15 +43,18 @@ class Section:
 
     def plot(self, ax=None, title: str | None = None):
         """White inside S, grey by Coulomb violation outside, x0 marked; returns the Axes."""
-        from matplotlib.colors import LogNorm
+        from matplotlib import colormaps
+        from matplotlib.colors import ListedColormap, LogNorm
         from matplotlib.figure import Figure
 
         if ax is None:
             ax = Figure(figsize=(5, 4.5)).add_subplot()
         v = np.where(self.violation > 0, self.violation, np.nan)
         pos = v[np.isfinite(v)]
-        norm = LogNorm(vmin=max(pos.min(), 1e-6), vmax=pos.max()) if pos.size else None
-        im = ax.pcolormesh(self.s, self.t, v, cmap="Greys", norm=norm, shading="nearest")
+        norm = LogNorm(vmin=pos.min(), vmax=pos.max()) if pos.size else None
+        # outside S starts at a visible grey, so white is exactly S (NaN: not drawn)
+        greys = ListedColormap(colormaps["Greys"](np.linspace(0.2, 1.0, 256)))
+        im = ax.pcolormesh(self.s, self.t, v, cmap=greys, norm=norm, shading="nearest")
         if pos.size:
             ax.figure.colorbar(im, ax=ax, label="Coulomb violation / <Fn>")
         ax.plot([0], [0], "r*", ms=10, label="x0")

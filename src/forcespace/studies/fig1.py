@@ -240,6 +240,9 @@ def summarize(results: list[dict], out) -> dict:
     numbers.update({"tasks": len(results), "tasks_failed": len(failed),
                     "failed": [f"{r['task']}: {r.get('error')}" for r in failed]})
     text = _text(own, squares, floor_rows)
+    if failed:
+        text += (f"\n\n{len(failed)} of {len(results)} tasks failed and are left out (the "
+                 f"reasons are listed under `failed` in the numbers below).")
     write_section(out, "fig1", "Fig. 1: force ambiguity and coordination against friction",
                   text, verdicts, numbers, figures=["fig1.png"])
     return {"tasks": len(results), "failed": len(failed), "rows": len(rows),
