@@ -41,11 +41,20 @@ KIND = "ensemble"
 SPREAD_FLOOR = 1e-8   # rms spread of samples per contact, in <Fn>, below which S is a point
 
 
+def _quantized(a) -> np.ndarray:
+    """a to 9 significant digits of its largest entry: the same problem built with another
+    BLAS thread count differs in the last bits (seen: 1e-12 absolute in b), which must
+    not make a resumable file "another problem"."""
+    a = np.asarray(a, float)
+    top = float(np.abs(a).max(initial=0.0)) or 1.0
+    return np.append(np.round(a / top, 9), float(f"{top:.9g}"))
+
+
 def fingerprint(problem: StaticsProblem, sampler: str, params: dict) -> str:
     """Hash of the problem (A, b, mu, contacts) and the sampler parameters."""
     h = hashlib.sha256()
     A = problem.A.tocsr()
-    for arr in (A.indptr, A.indices, np.round(A.data, 12), np.round(problem.b, 12),
+    for arr in (A.indptr, A.indices, _quantized(A.data), _quantized(problem.b),
                 problem.mu, problem.contacts):
         h.update(np.ascontiguousarray(arr).tobytes())
     h.update(sampler.encode())
@@ -281,7 +290,8 @@ def append(path, X, chains, violations, checkpoint: dict, checkpoint_attrs: dict
 
 
 def read(path, samples: bool = True) -> Ensemble:
-    """Read an ensemble file (InputError if it is not one)."""
+    """Read an ensemble file (InputError if it is not one); ``samples=False`` reads
+    everything but the samples (and their chains and violations)."""
     with open_h5(path, KIND) as f:
         try:
             g = f["problem"]
@@ -289,7 +299,8 @@ def read(path, samples: bool = True) -> Ensemble:
             X = f["samples"][()].reshape(-1, 2 * m) if samples else np.empty((0, 2 * m))
             return _check(Ensemble(
                 path=str(path), sampler=str(f.attrs["sampler"]), samples=X,
-                chains=f["sample_chain"][()], violations=f["sample_violation"][()],
+                chains=f["sample_chain"][()] if samples else np.empty(0, np.int64),
+                violations=f["sample_violation"][()] if samples else np.empty(0),
                 contacts=g["contacts"][()], disks=g["disks"][()], mu=g["mu"][()],
                 x_jammed=g["x_jammed"][()].reshape(-1), force_scale=float(f.attrs["force_scale"]),
                 attrs={k: (v.item() if hasattr(v, "item") else v) for k, v in f.attrs.items()},
