@@ -264,15 +264,16 @@ def frame(problem: StaticsProblem, analysis=None):
     return xc, N, H0, s0, free, an
 
 
-def rounding(H0, s0, scale, max_rounds=4):
+def rounding(H0, s0, scale, max_rounds=4, progress=False):
     """Frozen MVE rounding: (y0 (d,), L (d, d), info) with y = y0 + L w in units of <Fn>.
 
     The frame coordinate is y = N^T (x - x_c) / scale; S is {H0 (scale y) <= s0}.
+    ``progress``: a bar of the interior-point iterations on stderr.
     """
     from .rounding import mve_rounding
 
     d = H0.shape[1]
-    return mve_rounding(H0 * scale, s0, np.zeros(d), max_rounds=max_rounds)
+    return mve_rounding(H0 * scale, s0, np.zeros(d), max_rounds=max_rounds, progress=progress)
 
 
 def default_params(problem_dim: int, **kw) -> dict:
@@ -320,7 +321,7 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
     if ens is None:
         scale = problem.force_scale
         if d:
-            y0, L, rinfo = rounding(H0, s0, scale)
+            y0, L, rinfo = rounding(H0, s0, scale, progress=progress)
             xc = xc + scale * (N @ y0)
             s0 = s0 - scale * (H0 @ y0)
             T = scale * (N @ L)

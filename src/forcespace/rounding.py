@@ -8,23 +8,47 @@ PolyRound use). Mapping y = c + E^{1/2} w makes the MVE the unit ball, and by
 John's theorem the rounded polytope then lies within the ball of radius d:
 a rounded polytope in which hit-and-run mixes in O(d^2) coordinate steps.
 
-Plain linear algebra, no I/O. Units: whatever the caller uses for y and s
+Plain linear algebra; the only output is an optional progress bar (stderr). Units: whatever the caller uses for y and s
 (hit_and_run passes y in units of <Fn>).
 """
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg as sla
 
 from .errors import InputError, NumericalError
 
+ROW_TOL = 1e-10   # rows of {A x <= 1} below this x the largest row norm are round-off
 
-def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7):
+
+def _spd_factor(M):
+    """Cholesky factor of the SPD matrix M (LU fallback if round-off makes it indefinite)."""
+    try:
+        return ("chol", sla.cho_factor(M, lower=False, check_finite=False))
+    except np.linalg.LinAlgError:
+        return ("lu", sla.lu_factor(M, check_finite=False))
+
+
+def _spd_solve(fac, b):
+    kind, f = fac
+    return sla.cho_solve(f, b, check_finite=False) if kind == "chol" else \
+        sla.lu_solve(f, b, check_finite=False)
+
+
+def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7, minmu: float = 1e-8,
+        callback=None):
     """Maximum-volume ellipsoid inscribed in {H y <= s}.
 
     H (p, d), s (p,), y0 (d,) a strictly interior point. Returns
     (c (d,) centre, E2 (d, d) SPD with the ellipsoid {c + E2^{1/2} u: |u| <= 1},
     converged: bool, iterations). The iterate is feasible throughout, so an
     unconverged result is still an inscribed ellipsoid (merely not the largest).
+    Stops when the KKT residual is below ``tol`` (1 + sqrt(p)) and the
+    centring parameter has reached ``minmu``. ``callback(it, res, gap)`` is
+    called once per interior-point iteration (progress display).
+
+    Cost per iteration: one Cholesky factorisation of the p x p matrix Gm
+    (symmetric positive definite), reused for both of its solves.
     """
     A = np.asarray(H, float)
     s = np.asarray(s, float)
@@ -34,7 +58,13 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7):
         raise InputError("mve", "y0", "must be strictly inside the polytope",
                          got=float(slack0.min()))
     A = A / slack0[:, None]          # now {A x <= 1}, x = y - y0
-    minmu, tau0 = 1e-8, 0.75
+    # rows that are zero up to round-off (inequalities whose slack is constant on
+    # the hull: contacts that do not vary in S) cannot bind; with them the
+    # interior point stalls (their residual 1 - z never falls)
+    nrm = np.linalg.norm(A, axis=1)
+    A = A[nrm > ROW_TOL * nrm.max(initial=0.0)]
+    p = A.shape[0]
+    tau0 = 0.75
     bnrm = np.sqrt(p)
     x = np.zeros(d)
     y = np.ones(p)
@@ -67,6 +97,8 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7):
         R2 = bmAx - h - z
         R3 = rmu - yz
         res = max(np.abs(R1).max(), np.abs(R2).max(), np.abs(R3).max())
+        if callback is not None:
+            callback(it, res, gap)
         if res < tol * (1 + bnrm) and rmu <= minmu:
             ok = True
             break
@@ -75,13 +107,14 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7):
         y2h = 2 * yh
         Gm[np.diag_indices(p)] += np.maximum(1e-12, y2h * z)
         YA = y[:, None] * A
-        T = np.linalg.solve(Gm, (h + z)[:, None] * YA)
+        fac = _spd_factor(Gm)
+        T = _spd_solve(fac, (h + z)[:, None] * YA)
         ATP = (y2h[:, None] * T - YA).T
         R3Dy = R3 / y
         R23 = R2 - R3Dy
         dx = np.linalg.solve(ATP @ A, R1 + ATP @ R23)
         Adx = A @ dx
-        dyDy = np.linalg.solve(Gm, y2h * (Adx - R23))
+        dyDy = _spd_solve(fac, y2h * (Adx - R23))
         dy = y * dyDy
         dz = R3Dy - z * dyDy
         ax = -1.0 / min(np.min(-Adx / bmAx), -0.5)
@@ -97,32 +130,50 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7):
     return x + y0, E2, ok, it
 
 
-def mve_rounding(H, s, y0, max_rounds: int = 4, ratio: float = 6.0):
+def mve_rounding(H, s, y0, max_rounds: int = 4, ratio: float = 6.0, progress: bool = False):
     """Iterated MVE rounding: (shift (d,), L (d, d), info dict).
 
     y = shift + L w maps {H y <= s} to {(H L) w <= s - H shift} whose MVE is
     (close to) the unit ball centred at w = 0. Repeats in the new frame until
     the MVE's axis ratio is below ``ratio`` (round-off in very thin polytopes
-    needs a second pass). info: rounds, last axis ratio, converged flags.
+    needs a second pass). info: rounds, last axis ratio, converged flags,
+    interior-point iterations per round. ``progress``: a bar on stderr counting
+    interior-point iterations, with the round, KKT residual and duality gap.
     """
+    from .progress import progress as progress_bar
+
     H = np.asarray(H, float)
     d = H.shape[1]
     shift = np.asarray(y0, float).copy()
     L = np.eye(d)
-    info = {"rounds": 0, "axis_ratio": [], "converged": []}
-    for _ in range(max_rounds):
-        Hl = H @ L
-        sl = s - H @ shift
-        c, E2, ok, _ = mve(Hl, sl, np.zeros(d))
-        ev, V = np.linalg.eigh(E2)
-        if ev.min() <= 0:
-            raise NumericalError("MVE rounding: ellipsoid not positive definite")
-        r = float(np.sqrt(ev.max() / ev.min()))
-        info["rounds"] += 1
-        info["axis_ratio"].append(r)
-        info["converged"].append(bool(ok))
-        shift = shift + L @ c
-        L = L @ (V * np.sqrt(ev))
-        if r < ratio:
-            break
+    info = {"rounds": 0, "axis_ratio": [], "converged": [], "iterations": []}
+    bar = progress_bar(desc=f"MVE rounding (dim {d}, {H.shape[0]} rows)", unit="it",
+                       disable=not progress)
+
+    def show(it, res, gap):
+        bar.set_postfix_str(f"round {info['rounds'] + 1}, residual {res:.1e}, gap {gap:.1e}",
+                            refresh=False)
+        bar.update(1)
+
+    with bar:
+        for _ in range(max_rounds):
+            Hl = H @ L
+            sl = s - H @ shift
+            c, E2, ok, its = mve(Hl, sl, np.zeros(d), callback=show)
+            info["iterations"].append(int(its) + 1)
+            info, shift, L, r = _next_round(info, shift, L, c, E2, ok)
+            if r < ratio:
+                break
     return shift, L, info
+
+
+def _next_round(info, shift, L, c, E2, ok):
+    """Record one round's ellipsoid and compose the map: (info, shift, L, axis ratio)."""
+    ev, V = np.linalg.eigh(E2)
+    if ev.min() <= 0:
+        raise NumericalError("MVE rounding: ellipsoid not positive definite")
+    r = float(np.sqrt(ev.max() / ev.min()))
+    info["rounds"] += 1
+    info["axis_ratio"].append(r)
+    info["converged"].append(bool(ok))
+    return info, shift + L @ c, L @ (V * np.sqrt(ev)), r
