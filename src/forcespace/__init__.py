@@ -24,6 +24,9 @@ The public API (``import forcespace as fs``)::
     difference_field(packing, problem, x1, x2)   a drawable difference of two networks
     plot_difference(packing, problem, x1, x2, domains, ax)   Fig. 2-style figure
     section(problem, x0, directions)  a 2-D cross-section of S (Fig. 3 inset) -> Section
+    select(problem, kt_ratio, kn)     the network elastic springs select in S (minimum
+                                      complementary energy) -> Selection (.x, .energy,
+                                      .sliding_contacts, .displacement); also Selection(...)
     MemoryFile()                      an in-memory file for any output path
     InputError, NumericalError        what the library raises (CLI exit 2 and 3)
 
@@ -54,6 +57,7 @@ _LAZY = {
     "plot_difference": "draw", "plot_packing": "draw",
     "MemoryFile": "h5io",
     "section": "cross_section", "Section": "cross_section",
+    "select": "selection", "Selection": "selection",
 }
 
 __all__ = ["__version__", "ForcespaceError", "InputError", "NumericalError", *_LAZY]

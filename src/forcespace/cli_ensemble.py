@@ -18,6 +18,7 @@ def load_problem(path, slice_height=None, full=False, gap_tol=float("inf"), mu=N
 
 
 def _add_problem_args(p):
+    """--slice/--full (a mutually exclusive group, returned), --gap-tol, --mu."""
     g = p.add_mutually_exclusive_group()
     g.add_argument("--slice", type=float, metavar="H", default=None,
                    help="slice of height H [R] in the middle (default: the scene's "
@@ -29,6 +30,7 @@ def _add_problem_args(p):
     p.add_argument("--mu", type=float, default=None, metavar="MU",
                    help="disk-disk friction of S instead of the packing's own (e.g. a "
                         "frictionless packing with friction switched on); walls keep plate_mu")
+    return g
 
 
 def cmd_analyze(args) -> int:
@@ -120,6 +122,37 @@ def cmd_section(args) -> int:
     return 0
 
 
+def cmd_select(args) -> int:
+    import math
+
+    from .cli import print_result
+    from .errors import InputError
+    from .outputs import check_output_file, output_lock
+    from .packing_file import read_packing
+    from .selection import Selection
+    from .statics import plate_problem, problem_for
+
+    for name, v in (("--kt-ratio", args.kt_ratio), ("--kn", args.kn)):
+        if not (math.isfinite(v) and v > 0):
+            raise InputError("command line", name, "must be a finite number > 0", got=v)
+    check_output_file(args.output, inputs=[args.packing])
+    t0 = time.perf_counter()
+    packing = read_packing(args.packing)
+    if args.plate:
+        problem = plate_problem(packing, args.gap_tol, source=str(args.packing), mu=args.mu)
+    else:
+        problem = problem_for(packing, args.slice, args.full, args.gap_tol, args.mu,
+                              source=str(args.packing))
+    sel = Selection(kt_ratio=args.kt_ratio, kn=args.kn).compute(problem)
+    with output_lock(args.output):
+        sel.save(packing, args.output)
+    out = {"packing": str(args.packing), "output": str(args.output), **sel.summary(),
+           "jammed_violation": problem.violation(problem.x_jammed),
+           "wall_time_s": time.perf_counter() - t0}
+    print_result(out, args.json)
+    return 0
+
+
 def register(subparsers) -> None:
     p = subparsers.add_parser("analyze", help="exact analysis of the force ensemble S (LPs)")
     p.add_argument("packing", metavar="PACK.h5")
@@ -163,6 +196,25 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", required=True, help="figure (.png also writes .pdf)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_section)
+
+    p = subparsers.add_parser(
+        "select", help="the network linear springs select in S (minimum complementary "
+        "energy, a QP over S) -> soft-network file for `forcespace distance`")
+    p.add_argument("packing", metavar="PACK.h5")
+    g = _add_problem_args(p)
+    g.add_argument("--plate", action="store_true",
+                   help="whole packing under its load-controlled top plate (the S of the "
+                        "LIGGGHTS/pymunk runs and of `forcespace distance`)")
+    p.add_argument("--kt-ratio", type=float, default=2.0 / 7.0, metavar="R",
+                   help="tangential / normal contact stiffness kt/kn (default 2/7, as the "
+                        "LIGGGHTS adapter); the network depends on kn only through it")
+    p.add_argument("--kn", type=float, default=1.0, metavar="K",
+                   help="normal stiffness [F0/R] (scales the reported energy and "
+                        "displacements only; default 1)")
+    p.add_argument("-o", "--output", required=True, metavar="SEL.h5",
+                   help="soft-network file to write")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_select)
 
     p = subparsers.add_parser("ensemble", help="measures of a sampled ensemble (eta, ...)")
     p.add_argument("ensemble", metavar="ENS.h5")

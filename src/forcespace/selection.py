@@ -1,0 +1,287 @@
+"""Which point of S an elastic packing selects: the compatible force network.
+
+Linear contact springs (normal stiffness kn, tangential kt at the contact
+point) loaded from a stress-free touching state, without sliding, end in the
+force network that minimises the complementary energy
+
+    E(x) = 1/2 sum_j (fn_j^2 / kn_j + ft_j^2 / kt_j)      [F0 R]
+
+over the statically admissible networks: equilibrium A x = b plus elastic
+compatibility, which is what the minimum expresses (Castigliano / Menabrea;
+cf. Olsen & Kamrin on compatibility conditions in contact dynamics). The KKT
+conditions of the minimum over S are
+
+    fn_j / kn_j = n.(u_a - u_b) + mu_j nu_j       (overlap from displacements)
+    ft_j / kt_j = -(t.(u_b - u_a) - r_b th_b - r_a th_a) - nu_j s_j
+
+with the disk displacements u and rotations th the multipliers of the
+balance rows (:attr:`Selection.displacement`), nu_j >= 0 the multiplier of an
+active Coulomb row (ft = s_j mu fn, s_j = +-1) and a contact in tension
+opening (fn = ft = 0). So:
+
+* frictionless, or frictional with no Coulomb row active: the selected
+  network *is* the linear-elastic (small-displacement) solution, including
+  unilateral contacts that open (Signorini) -- exact, not a model;
+* a Coulomb row active: the minimum over S is the convex-program stand-in
+  for sliding. It is the associated (normality) flow rule, which lets a
+  sliding contact also dilate by mu nu; real Coulomb friction is
+  non-associated and path dependent (the order of loading decides which
+  contacts slide and how far), so with sliding the selection is a prediction
+  of the stiff-spring, proportional-loading limit only. ``sliding_contacts``
+  names the contacts where that is the case.
+
+Only the ratios of the stiffnesses matter: multiplying every kn and kt by c
+leaves the network unchanged and divides ``energy`` by c. With one kn for
+all contacts the network depends on kt/kn alone; per-contact ``kn`` (m,) is
+accepted as well.
+
+Method (no dependency beyond scipy): with D = diag(sqrt(kn_j), sqrt(kt_j))
+and z = D^-1 x the energy is |z|^2 / 2 and S maps to a polytope of the same
+form (columns of A scaled by D, friction mu_j sqrt(kn_j / kt_j)); the
+selected network is the Euclidean projection of 0 onto it, computed by
+:func:`forcespace.polytope.distance_to_S`'s verified method (null-space
+least-distance programming, then an exact active-set polish whose KKT
+conditions are checked). The problem is solved at <Fn> = 1 and scaled back.
+Measured against Clarabel (interior point) on the 200-disk paper slice:
+see ``studies/bench_select.py`` and ``studies/selection.md``.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import scipy.sparse as sp
+
+from .errors import InputError, NumericalError
+from .statics import StaticsProblem
+
+SLIDE_TOL = 1e-9   # a Coulomb row is active when its slack is below this x <Fn>
+
+
+def _stiffness(problem: StaticsProblem, kn, kt_ratio, source="select"):
+    """(kn (m,), kt (m,)) validated [F0/R]."""
+    m = problem.n_contacts
+    try:
+        r = float(kt_ratio)
+    except (TypeError, ValueError):
+        raise InputError(source, "kt_ratio", "must be a finite number > 0 (kt/kn)",
+                         got=kt_ratio) from None
+    if not (np.isfinite(r) and r > 0):
+        raise InputError(source, "kt_ratio", "must be a finite number > 0 (kt/kn)", got=kt_ratio)
+    k = np.asarray(kn, float)
+    if k.ndim == 0:
+        k = np.full(m, float(k))
+    if k.shape != (m,):
+        raise InputError(source, "kn", f"must be a number or an array of shape ({m},)",
+                         got=k.shape)
+    if not (np.all(np.isfinite(k)) and np.all(k > 0)):
+        raise InputError(source, "kn", "must be finite and > 0 [F0/R]")
+    return k, r * k
+
+
+def weighted_problem(problem: StaticsProblem, kn, kt):
+    """(problem in z = D^-1 x, d (2m,)): S of the weighted coordinates.
+
+    d[2j] = sqrt(kn_j / k0), d[2j+1] = sqrt(kt_j / k0), k0 = mean kn (so z is
+    in force units); A -> A diag(d), mu_j -> mu_j sqrt(kn_j / kt_j). The
+    complementary energy of x = d z is |z|^2 / (2 k0).
+    """
+    k0 = float(np.mean(kn))
+    d = np.empty(problem.n_columns)
+    d[0::2] = np.sqrt(kn / k0)
+    d[1::2] = np.sqrt(kt / k0)
+    A = (problem.A @ sp.diags(d)).tocsr()
+    mu = problem.mu * np.sqrt(kn / kt)
+    return dataclasses.replace(problem, A=A, mu=mu, x_jammed=problem.x_jammed / d), d
+
+
+class Selection:
+    """The compatible (minimum complementary energy) network in S of a problem.
+
+    ``Selection(kt_ratio=2/7, kn=1.0).compute(problem)``; kn [F0/R] a number
+    or one per unknown contact (m,), kt = kt_ratio * kn. Results (problem
+    column order, x[2j] = fn, x[2j+1] = ft [F0]):
+
+    x (2m,), fn, ft (m,); energy [F0 R]; sliding_contacts (Coulomb row active,
+    fn > 0: where the convex program stands in for path-dependent friction);
+    open_contacts (fn = 0: a spring would be in tension); displacement (n, 2)
+    [R] and rotation (n,) of the interior disks (the balance-row multipliers,
+    minimum norm where the packing has mechanisms); violation (of S, / <Fn>);
+    kkt_residual (of the weighted projection, relative); compatibility_residual
+    (max |W x - A^T lambda - G_act^T nu| over the contacts, relative to
+    max |W x|); method.
+    """
+
+    def __init__(self, kt_ratio: float = 2.0 / 7.0, kn=1.0):
+        self.kt_ratio = kt_ratio
+        self.kn = kn
+        self._res = None
+
+    def compute(self, problem: StaticsProblem) -> "Selection":
+        from .polytope import _check_feasible, _distance_to_S, _unit
+
+        kn, kt = _stiffness(problem, self.kn, self.kt_ratio)
+        if problem.n_contacts == 0:
+            raise InputError(problem.source or "problem", "contacts", "no unknown contact")
+        P, s = _unit(problem)
+        feas, _, diag = _check_feasible(P)
+        if not feas:
+            raise InputError(problem.source or "problem", "S",
+                             "is empty (no admissible network): nothing to select; "
+                             f"smallest total imbalance {diag['relative_to_mean_force']:.3g} <Fn>")
+        Pw, d = weighted_problem(P, kn, kt)
+        r = _distance_to_S(Pw, np.zeros(Pw.n_columns))
+        x = d * r.nearest * s
+        viol = problem.violation(x)
+        if viol > 1e-9:
+            raise NumericalError(f"selected network violates S by {viol:.2e} <Fn>")
+        self.problem = problem
+        self._kn, self._kt = kn, kt
+        self._res = dict(x=x, kkt=r.kkt_residual, violation=viol, method=
+                         "weighted projection: " + r.method)
+        self._res.update(_multipliers(problem, x, kn, kt))
+        return self
+
+    # ---- results ---------------------------------------------------------------
+    def _get(self, key):
+        if self._res is None:
+            raise InputError("Selection", "compute()", "must be called before reading results")
+        return self._res[key]
+
+    @property
+    def x(self) -> np.ndarray:
+        """The selected network (2m,) [F0]."""
+        return self._get("x")
+
+    @property
+    def fn(self) -> np.ndarray:
+        return self.x[0::2]
+
+    @property
+    def ft(self) -> np.ndarray:
+        return self.x[1::2]
+
+    @property
+    def energy(self) -> float:
+        """Complementary energy 1/2 sum (fn^2/kn + ft^2/kt) [F0 R] (kn in F0/R)."""
+        x = self.x
+        return float(0.5 * np.sum(x[0::2] ** 2 / self._kn + x[1::2] ** 2 / self._kt))
+
+    @property
+    def sliding_contacts(self) -> np.ndarray:
+        """Problem contacts at the Coulomb limit with fn > 0 (|ft| = mu fn)."""
+        return self._get("sliding")
+
+    @property
+    def open_contacts(self) -> np.ndarray:
+        """Problem contacts carrying no force (a spring there would be in tension)."""
+        return self._get("open")
+
+    @property
+    def displacement(self) -> np.ndarray:
+        """(n, 2) displacement of each interior disk [R] (minimum norm)."""
+        return self._get("displacement")
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """(n,) rotation of each interior disk [rad], counter-clockwise."""
+        return self._get("rotation")
+
+    @property
+    def violation(self) -> float:
+        return self._get("violation")
+
+    @property
+    def kkt_residual(self) -> float:
+        return self._get("kkt")
+
+    @property
+    def compatibility_residual(self) -> float:
+        return self._get("compatibility")
+
+    @property
+    def method(self) -> str:
+        return self._get("method")
+
+    def to_packing(self, packing):
+        """``packing`` (the one the problem was built from) carrying the selected
+        forces on the unknown contacts (others keep theirs), with the selection's
+        parameters in ``meta`` -- a soft network in the sense of the adapters."""
+        fn, ft = self.problem.to_packing_forces(self.x)
+        out = packing.with_forces(fn, ft)
+        sm = self.summary()
+        out.meta = {"code": "forcespace select", "converged": True,
+                    "problem_kind": sm["kind"],
+                    "slice_height": float("nan") if sm["slice_height"] is None
+                    else float(sm["slice_height"]),
+                    "kt_ratio": sm["kt_ratio"],
+                    "kn": float(np.mean(self._kn)), "energy": sm["energy"],
+                    "n_sliding": sm["n_sliding"], "n_open": sm["n_open"],
+                    "violation": sm["violation"], "kkt_residual": sm["kkt_residual"],
+                    "compatibility_residual": sm["compatibility_residual"],
+                    "mu_override": float("nan") if self.problem.meta.get("mu_override") is None
+                    else float(self.problem.meta["mu_override"])}
+        return out
+
+    def save(self, packing, path) -> None:
+        """Write :meth:`to_packing` as a soft-network file (``file_kind =
+        "soft_network"``, the packing schema), which ``forcespace distance`` reads."""
+        from .packing_file import write_packing
+        soft = self.to_packing(packing)
+        write_packing(soft, path, kind="soft_network",
+                      extra_attrs={f"run_{k}": v for k, v in soft.meta.items()})
+
+    def summary(self) -> dict:
+        p = self.problem
+        rel = np.linalg.norm(self.x - p.x_jammed) / (p.force_scale * np.sqrt(p.n_contacts))
+        return {"kind": p.kind, "slice_height": p.height, "n_contacts": p.n_contacts,
+                "kt_ratio": float(self.kt_ratio), "energy": self.energy,
+                "n_sliding": int(self.sliding_contacts.size),
+                "n_open": int(self.open_contacts.size),
+                "violation": self.violation, "kkt_residual": self.kkt_residual,
+                "compatibility_residual": self.compatibility_residual,
+                "distance_from_jammed": float(rel), "force_scale": p.force_scale,
+                "method": self.method}
+
+    def __repr__(self) -> str:
+        if self._res is None:
+            return f"Selection(kt_ratio={self.kt_ratio:g}, not computed)"
+        return (f"Selection(kt_ratio={self.kt_ratio:g}: energy={self.energy:.4g}, "
+                f"{self.sliding_contacts.size} sliding, {self.open_contacts.size} open)")
+
+
+def _multipliers(problem: StaticsProblem, x, kn, kt) -> dict:
+    """Contact classes and the displacement field behind a selected network x."""
+    G, owner, kind = problem.inequalities()
+    s = problem.force_scale
+    gx = G @ x
+    fn = x[0::2]
+    act = np.flatnonzero(gx > -SLIDE_TOL * s)
+    open_ = np.flatnonzero(fn <= SLIDE_TOL * s)
+    sliding = np.setdiff1d(np.unique(owner[act[kind[act] < 2]]), open_)
+    # stationarity W x = A^T lam - G_act^T nu (+ fixed columns): least squares
+    w = np.empty_like(x)
+    w[0::2] = fn / kn
+    w[1::2] = x[1::2] / kt
+    fixed = problem.fixed_columns()
+    w[fixed] = 0.0
+    m2 = problem.n_columns
+    E = sp.csr_matrix((np.ones(fixed.size), (np.arange(fixed.size), fixed)),
+                      shape=(fixed.size, m2))
+    B = sp.vstack([problem.A, -G[act], E]).T.toarray()
+    y = np.linalg.lstsq(B, w, rcond=None)[0]
+    comp = float(np.abs(B @ y - w).max(initial=0.0) / max(np.abs(w).max(initial=0.0), 1e-300))
+    n = problem.n_interior
+    lam = y[:3 * n]
+    disp = -np.column_stack([lam[0::3], lam[1::3]])
+    rot = -lam[2::3] / problem.radius
+    return {"sliding": sliding.astype(np.int64), "open": open_.astype(np.int64),
+            "displacement": disp, "rotation": rot, "compatibility": comp}
+
+
+def select(problem: StaticsProblem, kt_ratio: float = 2.0 / 7.0, kn=1.0) -> Selection:
+    """``Selection(kt_ratio, kn).compute(problem)``: the compatible network in S."""
+    return Selection(kt_ratio=kt_ratio, kn=kn).compute(problem)
+
+
+__all__ = ["Selection", "select", "weighted_problem"]
