@@ -82,7 +82,7 @@ def stack(mu, W=1.0, P=1.0):
     return p, prob
 
 
-def stiffness_solution(p, prob, kn, kt):
+def stiffness_solution(p, prob, kn, kt, overlap=None):
     """Direct stiffness method (module docstring): (x (2m,) in problem order, u (n, 2), th (n,)).
 
     kn, kt: numbers or (m,) per unknown contact; a frictionless contact has no
@@ -123,11 +123,14 @@ def stiffness_solution(p, prob, kn, kt):
                 i = dof[body]
                 F[i:i + 2] += sgn * force
                 F[i + 2] += -p.r[body] * p.ft[k]
-    # U = 1/2 q^T K q; equilibrium dU/dq = F (generalised loads; torque for th)
+    # U = 1/2 sum kn (dn + d0)^2 + kt s^2; equilibrium dU/dq = F (generalised loads)
+    d0 = np.zeros(prob.n_contacts) if overlap is None else np.asarray(overlap, float)
+    for j, (cn, _) in enumerate(grads):
+        F -= kn[j] * d0[j] * cn
     q = np.linalg.lstsq(K, F, rcond=1e-12)[0]
     x = np.empty(prob.n_columns)
     for j, (cn, ct) in enumerate(grads):
-        x[2 * j] = kn[j] * cn @ q
+        x[2 * j] = kn[j] * (d0[j] + cn @ q)
         x[2 * j + 1] = -kt[j] * ct @ q
     return x, q.reshape(n, 3)[:, :2], q.reshape(n, 3)[:, 2]
 
@@ -215,6 +218,29 @@ def test_kt_ratio_changes_answer_as_predicted():
     # frictionless: kt does not enter
     p0, prob0 = stack(mu=0.0)
     assert rel(fs.select(prob0, kt_ratio=0.1).x, fs.select(prob0, kt_ratio=10.0).x) < 1e-12
+
+
+def test_initial_overlaps():
+    """Springs that start overlapping (a soft code started from a rigid packing):
+    the stiffness method with the misfit as eigenstrain; kn now matters."""
+    p, prob = stack(mu=100.0)
+    rng = np.random.default_rng(3)
+    d0 = rng.uniform(-0.05, 0.1, prob.n_contacts)
+    for kn in (1.0, 10.0):
+        x_ref, u_ref, th_ref = stiffness_solution(p, prob, kn, 0.5 * kn, d0)
+        assert x_ref[0::2].min() > 0
+        sel = fs.select(prob, kt_ratio=0.5, kn=kn, overlap=d0)
+        assert rel(sel.x, x_ref) < 1e-9
+        assert sel.displacement == pytest.approx(u_ref, rel=1e-8, abs=1e-12)
+        assert sel.compatibility_residual < 1e-9
+    assert rel(fs.select(prob, 0.5, 1.0, d0).x, fs.select(prob, 0.5, 10.0, d0).x) > 1e-2
+    # a gap wider than the spring's approach: that contact carries nothing (Signorini)
+    p, prob = tripod(0.5, mu=0.0)
+    gap = np.array([0.0, 0.0, -10.0])
+    sel = fs.select(prob, kn=1.0, overlap=gap)
+    assert abs(sel.fn[2]) < 1e-12 and 2 in sel.open_contacts
+    with pytest.raises(fs.InputError, match="overlap"):
+        fs.select(prob, overlap=np.ones(2))
 
 
 def test_force_scale_invariance():
@@ -328,7 +354,8 @@ def test_cli_select_then_distance():
     d = json.loads(r.stdout)
     assert d["relative_distance"] < 1e-9 and d["unmatched_contacts"] == 0
     # the slice selection is admissible for the whole packing too
-    r = _cli("select", pack, "--kt-ratio", "1", "--slice", "28", "-o", "sel2.h5")
+    r = _cli("select", pack, "--kt-ratio", "1", "--slice", "28", "-o", "sel2.h5",
+             "--initial-overlaps", "--kn", "1e5")
     assert r.returncode == 0, r.stderr
     r = _cli("distance", "sel2.h5", pack, "--json")
     assert r.returncode == 0 and json.loads(r.stdout)["relative_distance"] < 1e-9

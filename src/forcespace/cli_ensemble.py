@@ -143,7 +143,11 @@ def cmd_select(args) -> int:
     else:
         problem = problem_for(packing, args.slice, args.full, args.gap_tol, args.mu,
                               source=str(args.packing))
-    sel = Selection(kt_ratio=args.kt_ratio, kn=args.kn).compute(problem)
+    overlap = None
+    if args.initial_overlaps:
+        from .selection import packing_overlaps
+        overlap = packing_overlaps(packing, problem)
+    sel = Selection(kt_ratio=args.kt_ratio, kn=args.kn, overlap=overlap).compute(problem)
     with output_lock(args.output):
         sel.save(packing, args.output)
     out = {"packing": str(args.packing), "output": str(args.output), **sel.summary(),
@@ -209,8 +213,11 @@ def register(subparsers) -> None:
                    help="tangential / normal contact stiffness kt/kn (default 2/7, as the "
                         "LIGGGHTS adapter); the network depends on kn only through it")
     p.add_argument("--kn", type=float, default=1.0, metavar="K",
-                   help="normal stiffness [F0/R] (scales the reported energy and "
-                        "displacements only; default 1)")
+                   help="normal stiffness [F0/R] (default 1; without --initial-overlaps it "
+                        "scales the reported energy only)")
+    p.add_argument("--initial-overlaps", action="store_true",
+                   help="springs start at the packing's own contact overlaps/gaps (a soft "
+                        "code started from this packing); kn then matters in absolute terms")
     p.add_argument("-o", "--output", required=True, metavar="SEL.h5",
                    help="soft-network file to write")
     p.add_argument("--json", action="store_true", help="print JSON")

@@ -30,8 +30,16 @@ opening (fn = ft = 0). So:
   of the stiff-spring, proportional-loading limit only. ``sliding_contacts``
   names the contacts where that is the case.
 
-Only the ratios of the stiffnesses matter: multiplying every kn and kt by c
-leaves the network unchanged and divides ``energy`` by c. With one kn for
+Initial misfit (``overlap``): springs that start overlapping by delta0_j
+(negative: a gap) -- e.g. a soft code started from the rigid packing, whose
+contacts overlap by ~1e-7 R -- add -sum delta0_j fn_j to the energy; the KKT
+conditions then read fn_j / kn_j = delta0_j + n.(u_a - u_b) + ..., the linear
+solution from that prestressed start (a contact with a gap carries force
+only once it closes: Signorini with the gap). Then kn matters in absolute
+terms (kn delta0 against the loads).
+
+Without ``overlap`` only the ratios of the stiffnesses matter: multiplying
+every kn and kt by c leaves the network unchanged and divides ``energy`` by c. With one kn for
 all contacts the network depends on kt/kn alone; per-contact ``kn`` (m,) is
 accepted as well.
 
@@ -98,8 +106,10 @@ def weighted_problem(problem: StaticsProblem, kn, kt):
 class Selection:
     """The compatible (minimum complementary energy) network in S of a problem.
 
-    ``Selection(kt_ratio=2/7, kn=1.0).compute(problem)``; kn [F0/R] a number
-    or one per unknown contact (m,), kt = kt_ratio * kn. Results (problem
+    ``Selection(kt_ratio=2/7, kn=1.0, overlap=None).compute(problem)``; kn
+    [F0/R] a number or one per unknown contact (m,), kt = kt_ratio * kn;
+    overlap (m,) [R] the springs' initial overlaps (module docstring; e.g.
+    :func:`packing_overlaps`). Results (problem
     column order, x[2j] = fn, x[2j+1] = ft [F0]):
 
     x (2m,), fn, ft (m,); energy [F0 R]; sliding_contacts (Coulomb row active,
@@ -112,9 +122,10 @@ class Selection:
     max |W x|); method.
     """
 
-    def __init__(self, kt_ratio: float = 2.0 / 7.0, kn=1.0):
+    def __init__(self, kt_ratio: float = 2.0 / 7.0, kn=1.0, overlap=None):
         self.kt_ratio = kt_ratio
         self.kn = kn
+        self.overlap = overlap
         self._res = None
 
     def compute(self, problem: StaticsProblem) -> "Selection":
@@ -129,17 +140,26 @@ class Selection:
             raise InputError(problem.source or "problem", "S",
                              "is empty (no admissible network): nothing to select; "
                              f"smallest total imbalance {diag['relative_to_mean_force']:.3g} <Fn>")
+        c = np.zeros(problem.n_columns)           # linear term of the energy: -c.x
+        if self.overlap is not None:
+            d0 = np.asarray(self.overlap, float)
+            if d0.shape != (problem.n_contacts,) or not np.all(np.isfinite(d0)):
+                raise InputError("select", "overlap", "must be finite, shape "
+                                 f"({problem.n_contacts},) [R] (one per unknown contact)",
+                                 got=d0.shape)
+            c[0::2] = d0
         Pw, d = weighted_problem(P, kn, kt)
-        r = _distance_to_S(Pw, np.zeros(Pw.n_columns))
+        k0 = float(np.mean(kn))
+        r = _distance_to_S(Pw, k0 * d * c / s)
         x = d * r.nearest * s
         viol = problem.violation(x)
         if viol > 1e-9:
             raise NumericalError(f"selected network violates S by {viol:.2e} <Fn>")
         self.problem = problem
-        self._kn, self._kt = kn, kt
+        self._kn, self._kt, self._c = kn, kt, c
         self._res = dict(x=x, kkt=r.kkt_residual, violation=viol, method=
                          "weighted projection: " + r.method)
-        self._res.update(_multipliers(problem, x, kn, kt))
+        self._res.update(_multipliers(problem, x, kn, kt, c))
         return self
 
     # ---- results ---------------------------------------------------------------
@@ -163,9 +183,11 @@ class Selection:
 
     @property
     def energy(self) -> float:
-        """Complementary energy 1/2 sum (fn^2/kn + ft^2/kt) [F0 R] (kn in F0/R)."""
+        """Complementary energy 1/2 sum (fn^2/kn + ft^2/kt) - sum overlap fn [F0 R]
+        (kn in F0/R, overlap in R)."""
         x = self.x
-        return float(0.5 * np.sum(x[0::2] ** 2 / self._kn + x[1::2] ** 2 / self._kt))
+        return float(0.5 * np.sum(x[0::2] ** 2 / self._kn + x[1::2] ** 2 / self._kt)
+                     - self._c @ x)
 
     @property
     def sliding_contacts(self) -> np.ndarray:
@@ -216,6 +238,7 @@ class Selection:
                     else float(sm["slice_height"]),
                     "kt_ratio": sm["kt_ratio"],
                     "kn": float(np.mean(self._kn)), "energy": sm["energy"],
+                    "initial_overlaps": sm["initial_overlaps"],
                     "n_sliding": sm["n_sliding"], "n_open": sm["n_open"],
                     "violation": sm["violation"], "kkt_residual": sm["kkt_residual"],
                     "compatibility_residual": sm["compatibility_residual"],
@@ -235,7 +258,8 @@ class Selection:
         p = self.problem
         rel = np.linalg.norm(self.x - p.x_jammed) / (p.force_scale * np.sqrt(p.n_contacts))
         return {"kind": p.kind, "slice_height": p.height, "n_contacts": p.n_contacts,
-                "kt_ratio": float(self.kt_ratio), "energy": self.energy,
+                "kt_ratio": float(self.kt_ratio), "initial_overlaps": self.overlap is not None,
+                "energy": self.energy,
                 "n_sliding": int(self.sliding_contacts.size),
                 "n_open": int(self.open_contacts.size),
                 "violation": self.violation, "kkt_residual": self.kkt_residual,
@@ -250,7 +274,7 @@ class Selection:
                 f"{self.sliding_contacts.size} sliding, {self.open_contacts.size} open)")
 
 
-def _multipliers(problem: StaticsProblem, x, kn, kt) -> dict:
+def _multipliers(problem: StaticsProblem, x, kn, kt, c) -> dict:
     """Contact classes and the displacement field behind a selected network x."""
     G, owner, kind = problem.inequalities()
     s = problem.force_scale
@@ -263,6 +287,7 @@ def _multipliers(problem: StaticsProblem, x, kn, kt) -> dict:
     w = np.empty_like(x)
     w[0::2] = fn / kn
     w[1::2] = x[1::2] / kt
+    w -= c
     fixed = problem.fixed_columns()
     w[fixed] = 0.0
     m2 = problem.n_columns
@@ -279,9 +304,15 @@ def _multipliers(problem: StaticsProblem, x, kn, kt) -> dict:
             "displacement": disp, "rotation": rot, "compatibility": comp}
 
 
-def select(problem: StaticsProblem, kt_ratio: float = 2.0 / 7.0, kn=1.0) -> Selection:
-    """``Selection(kt_ratio, kn).compute(problem)``: the compatible network in S."""
-    return Selection(kt_ratio=kt_ratio, kn=kn).compute(problem)
+def select(problem: StaticsProblem, kt_ratio: float = 2.0 / 7.0, kn=1.0,
+           overlap=None) -> Selection:
+    """``Selection(kt_ratio, kn, overlap).compute(problem)``: the compatible network in S."""
+    return Selection(kt_ratio=kt_ratio, kn=kn, overlap=overlap).compute(problem)
 
 
-__all__ = ["Selection", "select", "weighted_problem"]
+def packing_overlaps(packing, problem: StaticsProblem) -> np.ndarray:
+    """Initial overlap (m,) [R] of every unknown contact in ``packing`` (-gap)."""
+    return -np.asarray(packing.gap, float)[problem.contacts]
+
+
+__all__ = ["Selection", "select", "weighted_problem", "packing_overlaps"]
