@@ -359,3 +359,31 @@ def test_cli_select_then_distance():
     assert r.returncode == 0, r.stderr
     r = _cli("distance", "sel2.h5", pack, "--json")
     assert r.returncode == 0 and json.loads(r.stdout)["relative_distance"] < 1e-9
+
+
+# ---------------------------------------------------------------------------
+# the study (quick variant: 30 disks, LIGGGHTS + pymunk)
+# ---------------------------------------------------------------------------
+@pytest.mark.slow
+@pytest.mark.external
+def test_selection_study_quick(tmp_path, capsys):
+    import shutil
+
+    if shutil.which("liggghts") is None:
+        pytest.skip("LIGGGHTS binary missing (apt-get install liggghts)")
+    from forcespace.cli import main
+
+    out = tmp_path / "sel"
+    assert main(["study", "selection", "--quick", "--workers", "1", "-o", str(out),
+                 "--quiet"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["failed"] == 0 and summary["rows"] == 4
+    assert (out / "selection.csv").is_file() and (out / "selection.png").is_file()
+    table = (out / "selection_table.md").read_text()
+    assert "lig–sel" in table
+    for f in (out / "tasks").glob("*.json"):
+        for row in json.loads(f.read_text())["rows"]:
+            # every network compared is admissible: soft ones land within 1e-2 <Fn> of S
+            assert row["lig_distance_to_S"] < 1e-2 and row["pym_distance_to_S"] < 1e-2
+            assert row["d_lig_sel"] >= 0 and row["d_sel_centre"] > 0
+            assert row["na_lig_residual"] < 1e-9
