@@ -130,6 +130,39 @@ def nonassociated(S, kn, kt, overlap, sliding, sign, opened):
     return y[:2 * m] * sc, float(np.abs(M @ y - rhs).max())
 
 
+def incompatibility(S, x, kn, kt, overlap, sliding, opened):
+    """How far a network is from any elastic state of the springs.
+
+    Rows: normal fn/kn - overlap = (A^T lam)_n for contacts not open, and
+    tangential ft/kt = (A^T lam)_t for sticking frictional contacts, lam the
+    displacements (and rotations) of the disks and the plate. Normal springs
+    have no memory, so the normal rows are fitted exactly first (their
+    residual r_n is a check: LIGGGHTS' normal forces are kn times the
+    geometric overlap); the tangential rows are then fitted by least squares
+    over what the normal rows leave free (mostly the rotations). Returns
+    (|r_t| / |w|, |r_n| / |w|), w the deformations on the rows: r_t is the
+    smallest tangential slip that the network needs on top of an elastic
+    state -- 0 for the selection without sliding, the slip history of a soft
+    run otherwise.
+    """
+    import scipy.linalg as sla
+
+    normal = np.flatnonzero(~opened)
+    tang = np.flatnonzero(~opened & ~sliding & (S.mu > 0))
+    A = S.A.toarray()
+    Bn, Bt = A[:, 2 * normal].T, A[:, 2 * tang + 1].T
+    wn = x[2 * normal] / kn[normal] - overlap[normal]
+    wt = x[2 * tang + 1] / kt[tang]
+    lam0 = np.linalg.lstsq(Bn, wn, rcond=None)[0]
+    rn = wn - Bn @ lam0
+    N = sla.null_space(Bn, rcond=1e-12)
+    rt = wt - Bt @ lam0
+    if N.shape[1] and tang.size:
+        rt = rt - Bt @ N @ np.linalg.lstsq(Bt @ N, rt, rcond=None)[0]
+    nw = max(np.sqrt(wn @ wn + wt @ wt), 1e-300)
+    return float(np.linalg.norm(rt) / nw), float(np.linalg.norm(rn) / nw)
+
+
 def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, pymunk,
                  max_steps: int, workdir, landed_tol: float = 1e-4) -> dict:
     """One packing: the six networks of the module docstring and their distances."""
@@ -175,7 +208,7 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
                  "pym_unmatched": c_pym["unmatched_contacts"],
                  "pym_converged": c_pym["soft_run_converged"]})
 
-    rows = []
+    rows, kept = [], {}
     for ratio in kt_ratios:
         lig, tried = None, []
         for k in sorted(K, reverse=True):               # stiffest first
@@ -210,6 +243,9 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
             for tag, xref in (("na_lig", lig[0]), ("na_sel", sov.x)):
                 sl = _sliding(xref, S.mu, scale)
                 op = xref[0::2] <= 1e-6 * scale
+                if tag == "na_lig":
+                    inc = incompatibility(S, xref, knv, ratio * knv, ov, sl, op)
+                    row.update(lig_slip=inc[0], lig_normal_misfit=inc[1])
                 xna, res = nonassociated(S, knv, ratio * knv, ov, sl & ~op,
                                          np.sign(xref[1::2]), op)
                 xs[tag] = xna
@@ -221,6 +257,11 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
                 row[f"d_{a}_{b}"] = float(np.linalg.norm(xs[a] - xs[b]) / norm)
         slide = {k: _sliding(v, S.mu, scale) for k, v in xs.items()
                  if k not in ("centre", "na_lig", "na_sel")}
+        one = np.ones(S.n_contacts)
+        for k in ("pym", "cd", "centre", "sel"):   # the same measure, stress-free springs
+            row[f"{k}_slip"], row[f"{k}_normal_misfit"] = incompatibility(
+                S, xs[k], one, ratio * one, 0 * one, _sliding(xs[k], S.mu, scale),
+                xs[k][0::2] <= 1e-6 * scale)
         for k, v in slide.items():
             row[f"n_sliding_{k}"] = int(v.sum())
         if "lig" in xs:
@@ -233,6 +274,16 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
                 row[f"d_lig_{ref}_sticking"] = float(np.sqrt(sq[~either].sum()) / norm)
                 row[f"n_sliding_lig_and_{ref}"] = int((slide["lig"] & slide[ref]).sum())
         rows.append(row)
+        kept[ratio] = xs
+    # does the selection predict how kt/kn moves the soft network? (first two ratios)
+    if len(kt_ratios) >= 2 and all("lig" in kept[r] for r in kt_ratios[:2]):
+        r1, r2 = kt_ratios[:2]
+        norm = scale * np.sqrt(S.n_contacts)
+        dl, ds = kept[r2]["lig"] - kept[r1]["lig"], kept[r2]["sel"] - kept[r1]["sel"]
+        rows[-1].update(kt_effect_lig=float(np.linalg.norm(dl) / norm),
+                        kt_effect_sel=float(np.linalg.norm(ds) / norm),
+                        kt_effect_cosine=float(dl @ ds / max(np.linalg.norm(dl)
+                                                             * np.linalg.norm(ds), 1e-300)))
     return {"rows": rows}
 
 
@@ -259,7 +310,10 @@ def summarize(results: list[dict], out) -> dict:
             "lig_distance_to_S", "pym_distance_to_S"] + [f"d_{a}_{b}" for a, b in PAIRS] + [
         "n_sliding_lig", "n_sliding_sel", "n_sliding_sel_ov", "n_sliding_cd", "n_sliding_pym",
         "n_sliding_lig_and_sel_ov", "share_sliding_sel_ov", "d_lig_sel_ov_sticking",
-        "d_lig_sel_sticking", "na_lig_violation", "na_sel_violation", "na_lig_residual"]
+        "d_lig_sel_sticking", "na_lig_violation", "na_sel_violation", "na_lig_residual",
+        "lig_slip", "lig_normal_misfit", "sel_slip", "sel_normal_misfit", "pym_slip",
+        "pym_normal_misfit", "cd_slip", "cd_normal_misfit", "centre_slip",
+        "centre_normal_misfit", "kt_effect_lig", "kt_effect_sel", "kt_effect_cosine"]
     with open(out / "selection.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
         w.writeheader()
