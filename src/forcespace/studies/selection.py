@@ -167,12 +167,12 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
                  max_steps: int, workdir, landed_tol: float = 1e-4) -> dict:
     """One packing: the six networks of the module docstring and their distances."""
     from forcespace_adapters import liggghts as L
-    from forcespace_adapters.distance import compare, soft_vector
+    from forcespace_adapters.distance import run_status, soft_vector
     from forcespace_adapters.problem import soft_problem
     from forcespace_adapters.pymunk_sim import PymunkOptions, simulate
 
     from ..packing_file import read_packing, write_packing
-    from ..polytope import analyze, distance_to_S
+    from ..polytope import chebyshev_centre, distance_to_S, implicit_equalities
     from ..selection import packing_overlaps, select
     from ..statics import plate_problem
 
@@ -180,17 +180,24 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
     p, origin = _packing(scene, n_disks, mu, seed, wd)
     S = plate_problem(p)
     scale = S.force_scale
-    an = analyze(S, ranges=False, centre=True)
+    # the centre only (analyze() would also decide, by LP, which contacts vary)
+    imp = implicit_equalities(S)
+    centre, radius = chebyshev_centre(S, implicit_rows=imp)
     soft_prob = soft_problem(p, top="plate")
     base = {"mu": mu, "seed": seed, "packing": origin, "n_disks": p.n_disks,
-            "n_contacts": S.n_contacts, "dim_S": an.dim_S, "bounded": an.bounded,
+            "n_contacts": S.n_contacts, "n_implicit_rows": int(imp.size),
+            "centre_radius": radius / scale,
             "force_scale": scale, "jammed_violation": S.violation(S.x_jammed),
             "max_rigid_overlap": p.max_overlap()}
 
     def landed(soft):
-        c = compare(p, soft, S)
-        _, x, _ = soft_vector(p, soft, S)
-        return distance_to_S(S, x).nearest, c
+        """(projection onto S, the numbers `forcespace distance` reports)."""
+        _, x, match = soft_vector(p, soft, S)
+        d = distance_to_S(S, x)
+        return d.nearest, {"relative_distance": d.relative,
+                           "unmatched_contacts": len(match.unmatched),
+                           "lost_contacts": len(match.lost), "max_overlap": soft.max_overlap(),
+                           "soft_run_converged": run_status(soft.meta)[0]}
 
     # pymunk: one run (no stiffness, kt does not enter)
     it, dt = pymunk
@@ -229,7 +236,7 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
                 lig = (xl, rec)
                 break
         sel = select(S, kt_ratio=ratio)
-        xs = {"pym": x_pym, "sel": sel.x, "cd": S.x_jammed, "centre": an.centre}
+        xs = {"pym": x_pym, "sel": sel.x, "cd": S.x_jammed, "centre": centre}
         row = dict(base, kt_ratio=ratio, lig_runs=tried, n_sliding_sel=int(sel.sliding_contacts.size))
         if lig is not None:
             xs["lig"] = lig[0]
@@ -306,7 +313,7 @@ def summarize(results: list[dict], out) -> dict:
 
     out = Path(out)
     rows = [r for res in results if res.get("ok") for r in res["rows"]]
-    keys = ["mu", "seed", "kt_ratio", "packing", "n_contacts", "dim_S", "lig_K", "lig_converged",
+    keys = ["mu", "seed", "kt_ratio", "packing", "n_contacts", "centre_radius", "lig_K", "lig_converged",
             "lig_distance_to_S", "pym_distance_to_S"] + [f"d_{a}_{b}" for a, b in PAIRS] + [
         "n_sliding_lig", "n_sliding_sel", "n_sliding_sel_ov", "n_sliding_cd", "n_sliding_pym",
         "n_sliding_lig_and_sel_ov", "share_sliding_sel_ov", "d_lig_sel_ov_sticking",
