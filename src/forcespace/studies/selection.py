@@ -347,7 +347,7 @@ def summarize(results: list[dict], out) -> dict:
     (out / "selection_table.md").write_text(
         "rms per-contact distance / <Fn> (mean ± std over seeds)\n\n" + "\n".join(lines) + "\n")
 
-    fig = Figure(figsize=(10, 4.5))
+    fig = Figure(figsize=(11, 4.5))
     ax = fig.subplots()
     xt = np.arange(len(groups))
     for i, (a, b) in enumerate(PAIRS):
@@ -363,9 +363,9 @@ def summarize(results: list[dict], out) -> dict:
     ax.set_yscale("log")
     ax.set_ylabel("rms distance per contact / <Fn>")
     ax.set_title("Where in S the networks land (lig: LIGGGHTS, pym: pymunk, sel: elastic "
-                 "selection, sel_ov: from the rigid overlaps, cd: jammed, centre of S)",
-                 fontsize=8)
-    ax.legend(fontsize=7, ncol=2, loc="lower right")
+                 "selection, sel_ov: from the rigid overlaps, na_*: true Coulomb on given "
+                 "sliding sets, cd: jammed, centre of S)", fontsize=7)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.tight_layout()
     save_figure(fig, out / "selection.png")
     return {"tasks": len(results), "failed": sum(not r.get("ok") for r in results),
