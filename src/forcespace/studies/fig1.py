@@ -147,21 +147,15 @@ def argmax_bootstrap(by_mu: dict, n_boot: int = 2000, seed: int = 0):
 
 def summarize(results: list[dict], out) -> dict:
     """fig1.csv (one row per S), fig1_by_mu.csv, fig1.png/.pdf, verdicts.json, REPORT.md."""
-    import csv
-
     from matplotlib.figure import Figure
 
     from ..draw import save_figure
-    from .report import Verdict, write_section
+    from .report import write_csv, write_section
 
     out = Path(out)
     rows = _rows(results)
     failed = [r for r in results if not r.get("ok")]
-    with open(out / "fig1.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=ROW_KEYS, extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: r.get(k) for k in ROW_KEYS})
+    write_csv(out / "fig1.csv", rows, ROW_KEYS)
     own = [r for r in rows if r["mu"] > 0]
     squares = [r for r in rows if r["mu"] == 0 and r["mu_sample"] > 0]
     floor_rows = [r for r in rows if r["mu"] == 0 and r["mu_sample"] == 0]
@@ -183,10 +177,7 @@ def summarize(results: list[dict], out) -> dict:
             **{f"eta_{k}_mean": eta[k][m].mean() if m in eta[k] else None for k in eta},
             **{f"eta_{k}_sd": eta[k][m].std() if m in eta[k] else None for k in eta}})
     if by_mu_rows:
-        with open(out / "fig1_by_mu.csv", "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(by_mu_rows[0]))
-            w.writeheader()
-            w.writerows(by_mu_rows)
+        write_csv(out / "fig1_by_mu.csv", by_mu_rows, list(by_mu_rows[0]))
 
     fig = Figure(figsize=(14, 4.4))
     ax1, ax2, ax3 = fig.subplots(1, 3)

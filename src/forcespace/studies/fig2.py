@@ -105,12 +105,10 @@ def packing_task(scene: str, n_disks: int, slice_height: float, mu: float, seed:
 def summarize(results: list[dict], out) -> dict:
     """fig2.csv, fig2_clusters.png (rho, domain fraction, percolation vs mu),
     fig2.png (the difference networks at mu = 0.1 and 0.5), verdicts, REPORT.md."""
-    import csv
-
     from matplotlib.figure import Figure
 
     from ..draw import save_figure
-    from .report import Verdict, write_section
+    from .report import Verdict, write_csv, write_section
 
     out = Path(out)
     rows = [r for r in results if r.get("ok")]
@@ -118,16 +116,10 @@ def summarize(results: list[dict], out) -> dict:
     keys = ["mu", "seed", "z", "slice_disks", "slice_contacts", "dim_S", "n_domains",
             "n_elementary", "density_rho", "largest_domain_fraction", "varying_fraction",
             "percolates", "elementary_sizes_contacts", "t_clusters_s"]
-    with open(out / "fig2.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys + ["other_loads_same_domains",
-                                                 "other_loads_same_clusters"],
-                           extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            ol = r.get("other_loads") or {}
-            w.writerow({**{k: r.get(k) for k in keys}, "other_loads_same_domains":
-                        ol.get("same_domains"), "other_loads_same_clusters":
-                        ol.get("same_clusters")})
+    write_csv(out / "fig2.csv",
+              [dict(r, other_loads_same_domains=(r.get("other_loads") or {}).get("same_domains"),
+                    other_loads_same_clusters=(r.get("other_loads") or {}).get("same_clusters"))
+               for r in rows], keys + ["other_loads_same_domains", "other_loads_same_clusters"])
     mus = sorted({r["mu"] for r in rows})
 
     def per_mu(key):

@@ -137,13 +137,11 @@ def _mean_se(v) -> tuple[float, float]:
 
 def summarize(results: list[dict], out) -> dict:
     """fig3.csv, fig3.png/.pdf, verdicts.json and section.md under ``out``."""
-    import csv
-
     from matplotlib.figure import Figure
     from scipy.stats import mannwhitneyu, wilcoxon
 
     from ..draw import save_figure
-    from .report import Verdict, write_section
+    from .report import Verdict, write_csv, write_section
 
     out = Path(out)
     rows = [r for r in results if r.get("ok") and r.get("usable")]
@@ -156,11 +154,7 @@ def summarize(results: list[dict], out) -> dict:
             "jammed_tight_contacts", "on_boundary_fraction_hit_and_run",
             "on_boundary_fraction_relax", "ks_columns", "t_jam_s", "t_hit_and_run_s",
             "t_relax_s"]
-    with open(out / "fig3.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
-        w.writeheader()
-        for r in sorted(rows, key=lambda r: r["seed"]):
-            w.writerow({k: r.get(k) for k in keys})
+    write_csv(out / "fig3.csv", sorted(rows, key=lambda r: r["seed"]), keys)
     numbers: dict = {"packings_used": len(rows), "packings_skipped": len(skipped),
                      "tasks_failed": len(failed)}
     verdicts = []

@@ -77,13 +77,11 @@ def packing_task(scene: str, n_disks: int, width: float, mu: float, seed: int,
 
 
 def summarize(results: list[dict], out) -> dict:
-    import csv
-
     from matplotlib.figure import Figure
 
     from ..draw import save_figure
     from .fig1 import argmax_bootstrap
-    from .report import Verdict, write_section
+    from .report import Verdict, write_csv, write_section
 
     out = Path(out)
     rows = [r for r in results if r.get("ok")]
@@ -91,11 +89,7 @@ def summarize(results: list[dict], out) -> dict:
     keys = ["mu", "seed", "z", "disk", "weight", "carries_any_force", "f_star", "f_star_over_weight", "push_depth",
             "push_factor", "push_displaced", "push_max_displacement", "control_max_displacement",
             "push_steps", "push_at_rest", "t_jam_s", "t_push_s"]
-    with open(out / "pointforce.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: r.get(k) for k in keys})
+    write_csv(out / "pointforce.csv", rows, keys)
     pushed = [r for r in rows if r.get("push_depth") is not None]
     mus = sorted({r["mu"] for r in pushed})
     depth = {m: np.array([r["push_depth"] for r in pushed if r["mu"] == m]) for m in mus}

@@ -46,6 +46,19 @@ Where our protocol differs from the paper's, and how that could move the numbers
 """
 
 
+def write_csv(path, rows, keys) -> Path:
+    """A table of dicts (one per row, missing keys empty) written atomically."""
+    import csv
+
+    path = Path(path)
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(keys), extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: r.get(k) for k in keys})
+    return path
+
+
 @dataclass(frozen=True)
 class Verdict:
     """One claim of the paper, our number, and the plain verdict."""

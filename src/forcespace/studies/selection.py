@@ -305,11 +305,10 @@ MARKERS = "o^sv<>Dph*PX"
 def summarize(results: list[dict], out) -> dict:
     """selection.csv (one row per packing and kt/kn), selection_table.md (means
     over seeds) and selection.png/.pdf (the distances per mu and kt/kn)."""
-    import csv
-
     from matplotlib.figure import Figure
 
     from ..draw import save_figure
+    from .report import write_csv
 
     out = Path(out)
     rows = [r for res in results if res.get("ok") for r in res["rows"]]
@@ -321,11 +320,7 @@ def summarize(results: list[dict], out) -> dict:
         "lig_slip", "lig_normal_misfit", "sel_slip", "sel_normal_misfit", "pym_slip",
         "pym_normal_misfit", "cd_slip", "cd_normal_misfit", "centre_slip",
         "centre_normal_misfit", "kt_effect_lig", "kt_effect_sel", "kt_effect_cosine"]
-    with open(out / "selection.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: r.get(k) for k in keys})
+    write_csv(out / "selection.csv", rows, keys)
     groups = sorted({(r["mu"], r["kt_ratio"]) for r in rows})
 
     def mean(vals):
