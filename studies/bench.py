@@ -110,6 +110,83 @@ def static_convergence(scene, packing: Packing, seed=1):
     return history
 
 
+def scaling(p: Packing, tiles=(1, 5, 10), sample_tiles=(1, 3, 6), height=28.0,
+            n_samples=100, seed=1):
+    """Cost growth of the exact analysis and of hit-and-run with system size.
+
+    The packing tiled k times along periodic x (:func:`tile`) and its slice of
+    ``height``. Per k: the work of ``forcespace analyze --slice`` (analyze
+    without ranges, then the domains), CPU and wall seconds. Per k in
+    ``sample_tiles``: dim S, MVE rounding time, the time of 100 samples (one
+    chain, 100 thinning intervals of d^2 coordinate steps, after burn-in) and
+    the time per effective sample (sampling time of ``n_samples`` samples,
+    burn-in included, over the smallest ESS of |x - mean|^2 and three random
+    projections). CPU seconds are the robust numbers on a shared machine
+    (everything here is single threaded); the growth exponent is the slope of
+    log CPU time against log n over the largest two sizes.
+    """
+    from forcespace import hit_and_run as har
+    from forcespace.h5io import MemoryFile
+    from forcespace.measures import domains
+    from forcespace.polytope import analyze
+    from forcespace.statics import slice_problem
+
+    def clock():
+        return time.process_time(), time.perf_counter()
+
+    rows, samp = [], []
+    for k in sorted(set(tiles) | set(sample_tiles)):
+        q = tile(p, k) if k > 1 else p
+        prob = slice_problem(q, height)
+        c0, w0 = clock()
+        an = analyze(prob, ranges=False, centre=True)
+        domains(prob, an)
+        c1, w1 = clock()
+        row = {"n_disks": q.n_disks, "n_contacts": prob.n_contacts, "dim_S": an.dim_S,
+               "analyze_cpu_s": c1 - c0, "analyze_wall_s": w1 - w0}
+        rows.append(row)
+        print(f"  analyze n={q.n_disks:5d} m={prob.n_contacts:5d} dim S={an.dim_S:4d}: "
+              f"{c1 - c0:8.2f} s CPU ({w1 - w0:.1f} s wall)", flush=True)
+        if k not in sample_tiles or not an.dim_S:
+            continue
+        xc, N, H0, s0, free, _ = har.frame(prob, an)
+        d = N.shape[1]
+        c0, w0 = clock()
+        y0, L, rinfo = har.rounding(H0, s0, prob.force_scale)
+        c1, w1 = clock()
+        H = np.asfortranarray(prob.force_scale * (H0 @ L))
+        s0r = s0 - prob.force_scale * (H0 @ y0)
+        state = har.seed_states(seed, 1)[0]
+        w = np.zeros(d)
+        har.har_steps(H, s0r, w, state, 10 * d * d, True)          # burn-in (and compile)
+        c2, w2 = clock()
+        har.har_steps(H, s0r, w, state, 100 * d * d, True)
+        c3, w3 = clock()
+        res = har.sample(prob, n_samples, MemoryFile("<bench>"), seed=seed, analysis=an)
+        c4, _w4 = clock()
+        ess = min(v for v in (res.get("ess_sqdev"), res.get("ess_projections_min"))
+                  if v is not None)
+        srow = {"n_disks": q.n_disks, "dim_S": d, "rows": int(H.shape[0]),
+                "rounding_cpu_s": c1 - c0, "rounding_rounds": rinfo["rounds"],
+                "rounding_iterations": rinfo["iterations"],
+                "cpu_s_100_samples": c3 - c2, "rounding_over_100_samples": (c1 - c0) / (c3 - c2),
+                "ess": ess, "rhat_sqdev": res.get("rhat_sqdev"),
+                "cpu_s_per_effective_sample": (c4 - c3 - (c1 - c0)) / ess}
+        samp.append(srow)
+        print(f"  hit-and-run dim S={d:4d} ({H.shape[0]} rows): rounding {c1 - c0:.2f} s CPU "
+              f"({rinfo['rounds']} rounds, {sum(rinfo['iterations'])} iterations), 100 samples "
+              f"{c3 - c2:.2f} s, ratio {(c1 - c0) / (c3 - c2):.2f}; {n_samples} samples ESS "
+              f"{ess:.0f}, {srow['cpu_s_per_effective_sample']:.3f} s per effective sample",
+              flush=True)
+    big = rows[-2:]
+    expo = (np.log(big[1]["analyze_cpu_s"] / big[0]["analyze_cpu_s"])
+            / np.log(big[1]["n_disks"] / big[0]["n_disks"])) if len(big) == 2 else None
+    if expo is not None:
+        print(f"  analyze cost growth: CPU ~ n^{expo:.2f} between n={big[0]['n_disks']} and "
+              f"n={big[1]['n_disks']}", flush=True)
+    return {"analyze": rows, "hit_and_run": samp, "analyze_growth_exponent": expo}
+
+
 def main():
     OUT.mkdir(parents=True, exist_ok=True)
     paper = load_scene("inputs/paper.toml")
@@ -160,6 +237,9 @@ def main():
         acc[f"compression tolerance (quick.toml, overlap correction {beta})"] = sweep_tol
     results["accuracy_vs_time"] = acc
 
+    print("exact analysis and hit-and-run against system size ...", flush=True)
+    results["scaling"] = scaling(packings[0.1])
+
     (OUT / "bench.json").write_text(json.dumps(results, indent=2))
     plot(results)
     print(f"wrote {OUT / 'bench.json'}, {OUT / 'bench.png'} (+ .pdf)")
@@ -194,4 +274,12 @@ def plot(results):
 
 
 if __name__ == "__main__":
-    main()
+    if sys.argv[1:2] == ["scaling"]:      # only this section: bench.py scaling PACKING [k ...]
+        ks = tuple(int(a) for a in sys.argv[3:]) or (1, 5, 10)
+        OUT.mkdir(parents=True, exist_ok=True)
+        table = scaling(Packing.load(sys.argv[2]), tiles=ks,
+                        sample_tiles=tuple(k for k in ks if k <= 6))
+        (OUT / "bench_scaling.json").write_text(json.dumps(table, indent=2))
+        print(f"wrote {OUT / 'bench_scaling.json'}")
+    else:
+        main()
