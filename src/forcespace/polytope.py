@@ -94,6 +94,22 @@ def null_basis(M, tol_rel=1e-10, return_noise: bool = False):
     return (N, float(noise)) if return_noise else N
 
 
+def _affine_hull(M, rhs, x0, tol_rel=1e-10):
+    """(N, xa, rank): orthonormal null basis of M (as :func:`null_basis`), x0 moved
+    onto {M x = rhs} by the minimum-norm step, and the rank of M, all from one dense
+    SVD of M. The step uses only the singular values above the rank threshold: a
+    least-squares solve that keeps the round-off ones (1e-16 s_max, dependent rows)
+    moves x0 along null directions, i.e. out of S (seen: 2e-2 <Fn> on a slice)."""
+    M = M.toarray() if sp.issparse(M) else np.asarray(M)
+    if M.shape[0] == 0:
+        return np.eye(M.shape[1]), np.asarray(x0, float).copy(), 0
+    u, s, vt = np.linalg.svd(M, full_matrices=True)
+    rank = int((s > tol_rel * max(s[0], 1e-300) * max(M.shape)).sum()) if s.size else 0
+    r = M @ x0 - rhs
+    step = vt[:rank].T @ ((u[:, :rank].T @ r) / s[:rank])
+    return vt[rank:].T.copy(), x0 - step, rank
+
+
 # ----------------------------------------------------------------------------
 # Results
 # ----------------------------------------------------------------------------
@@ -281,18 +297,24 @@ def _analyze(problem: StaticsProblem, ranges: bool = True, centre: bool = True,
     n_fixed = problem.fixed_columns().size
     n_unknowns = m2 - n_fixed
     free_cols = np.setdiff1d(np.arange(m2), problem.fixed_columns())
-    rank_A = _rank(problem.A[:, free_cols])  # rank over the unknowns (not ft of mu=0 contacts)
-    Eq0, _ = _eq_system(problem)
-    doi = m2 - _rank(Eq0)
+
+    def set_rank(rank_A):
+        # rank over the unknowns (not ft of mu=0 contacts). [A; fixed] is block
+        # triangular in (free, fixed) columns with an identity on the fixed ones:
+        # its rank is n_fixed + rank_A (no SVD of its own)
+        out.rank_A, out.full_row_rank = rank_A, rank_A == problem.A.shape[0]
+        out.degree_of_indeterminacy = m2 - (n_fixed + rank_A)
+
     out = PolytopeAnalysis(
         feasible=False, bounded=None, n_interior=problem.n_interior, n_contacts=m,
-        n_unknowns=n_unknowns, rank_A=rank_A, full_row_rank=rank_A == problem.A.shape[0],
-        degree_of_indeterminacy=doi, dim_S=None, n_sliding=None, n_zero=None,
+        n_unknowns=n_unknowns, rank_A=-1, full_row_rank=False,
+        degree_of_indeterminacy=-1, dim_S=None, n_sliding=None, n_zero=None,
         force_scale=problem.force_scale)
     if m == 0:
         raise InputError(problem.source or "problem", "contacts", "no unknown contact in the problem")
     feas, x0, diag = _check_feasible(problem)
     if not feas:
+        set_rank(_rank(problem.A[:, free_cols]))
         out.infeasibility = diag
         return out
     out.feasible = True
@@ -303,11 +325,12 @@ def _analyze(problem: StaticsProblem, ranges: bool = True, centre: bool = True,
     imp = _implicit_equalities(problem, tol)
     out.implicit_rows = imp
     Eq, rhs = _eq_system(problem, G[imp])
-    # one point of S and the affine hull
-    N = null_basis(Eq)
+    # one point of S and the affine hull: x0 projected onto the hull (removes LP
+    # round-off along the equalities), from the same SVD as the hull's basis
+    N, xa, rank_eq = _affine_hull(Eq, rhs, x0)
     out.dim_S = int(N.shape[1])
-    # project x0 onto the affine hull (removes LP round-off along the equalities)
-    xa = x0 - sla.lstsq(Eq.toarray(), Eq @ x0 - rhs)[0]
+    # without fixed columns and implicit rows Eq is A itself: same SVD, same rank
+    set_rank(rank_eq if imp.size == 0 and n_fixed == 0 else _rank(problem.A[:, free_cols]))
     out.affine_point, out.affine_basis = xa, N
     # classify implicit equalities per contact
     imp_set = {}
