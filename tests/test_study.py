@@ -190,3 +190,9 @@ def test_max_point_force_is_where_rigid_disks_start_to_move():
     assert below.at_rest and below.displacement.max() < 0.01
     above = push(p, k, 1.05 * f_star)         # it cannot: disks give way by > 0.1 R
     assert above.displacement.max() > 0.1
+
+
+def test_location_verdict_half_a_decade():
+    assert fig1.location_verdict(0.0316227766, 0.164) == "reproduced"
+    assert fig1.location_verdict(0.01, 1.0) == "not decidable"
+    assert fig1.location_verdict(0.5, 10.0) == "refuted"

@@ -132,6 +132,18 @@ def slope_fit(mu, eta) -> tuple[float, float]:
     return float(coef[1]), float(np.sqrt(cov[1, 1]))
 
 
+def location_verdict(lo: float, hi: float, near: float = 0.1) -> str:
+    """Is an extremum "near ``near``"? Its 95 % interval [lo, hi] within half a decade of
+    it (a factor sqrt(10), with a hair of round-off): reproduced; the interval excluding
+    it: refuted; otherwise not decidable."""
+    f = np.sqrt(10.0) * (1 + 1e-9)
+    if near / f <= lo and hi <= near * f:
+        return "reproduced"
+    if hi < near or lo > near:
+        return "refuted"
+    return "not decidable"
+
+
 def argmax_bootstrap(by_mu: dict, n_boot: int = 2000, seed: int = 0):
     """mu of the largest mean eta, and its 2.5-97.5 % bootstrap interval over packings."""
     mus = np.array(list(by_mu))
@@ -272,18 +284,18 @@ def _verdicts(own, squares, floor, floor_rows, eta, z, dim, ratio_doi):
                                           "eta_max": float(eta[k][m].mean())}
     mx = numbers.get("eta_max_mu_hit_and_run")
     mxr = numbers.get("eta_max_mu_relax")
-    if mx:
-        at10 = eta["hit_and_run"][max(eta["hit_and_run"])].mean()
-        inside = mx["ci95"][0] <= 0.2 and mx["ci95"][1] >= 0.05
+    if mx and mxr:
+        # the paper's eta is its walk's: the verdict is on the relax walk, hit-and-run beside
+        at10 = eta["relax"][max(eta["relax"])].mean()
+        where = location_verdict(*mxr["ci95"])
         verdicts.append(Verdict(
             "fig1", "eta is largest around mu ≈ 0.1 and decreases beyond",
-            f"maximum of the mean eta at mu = {mx['mu']:.3g} (95 % bootstrap interval "
-            f"{mx['ci95'][0]:.3g}-{mx['ci95'][1]:.3g}; hit-and-run), "
-            + (f"{mxr['mu']:.3g} ({mxr['ci95'][0]:.3g}-{mxr['ci95'][1]:.3g}; relax walk); "
-               if mxr else "")
-            + f"eta there {mx['eta_max']:.3g}, at mu = {max(eta['hit_and_run']):g}: {at10:.3g}",
-            "not decidable" if max(eta["hit_and_run"]) < 1 else     # sweep not done yet
-            "reproduced" if inside and at10 < mx["eta_max"] else "refuted"))
+            f"maximum of the mean eta at mu = {mxr['mu']:.3g} (95 % bootstrap interval "
+            f"{mxr['ci95'][0]:.3g}-{mxr['ci95'][1]:.3g}; relax walk, as the paper), "
+            f"{mx['mu']:.3g} ({mx['ci95'][0]:.3g}-{mx['ci95'][1]:.3g}; hit-and-run); "
+            f"relax eta there {mxr['eta_max']:.3g}, at mu = {max(eta['relax']):g}: {at10:.3g}",
+            "not decidable" if max(eta["relax"]) < 1 else     # sweep not done yet
+            (where if where != "reproduced" or at10 < mxr["eta_max"] else "refuted")))
     # coordination
     zlo, zhi = min(z), max(z)
     z0 = np.array([r["z"] for r in floor_rows])
