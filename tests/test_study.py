@@ -16,12 +16,16 @@ def rows(results):
     return [{k: row[k] for k in KEYS} for r in results for row in r["rows"]]
 
 
+def run_quick(name, out, capsys) -> dict:
+    """Run ``forcespace study NAME --quick`` on two local workers; its JSON summary."""
+    assert main(["study", name, "--quick", "--workers", "2", "-o", str(out), "--quiet"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
 @pytest.mark.slow
 def test_fig1_quick_local_pool_resumes_and_equals_dask(tmp_path, capsys):
     local = tmp_path / "local"
-    assert main(["study", "fig1", "--quick", "--workers", "2", "-o", str(local),
-                 "--quiet"]) == 0
-    summary = json.loads(capsys.readouterr().out)
+    summary = run_quick("fig1", local, capsys)
     assert summary["failed"] == 0 and summary["rows"] == 14
     assert (local / "fig1.csv").is_file() and (local / "fig1.png").is_file()
     assert (local / "fig1.pdf").is_file() and len(summary["verdicts"]) >= 6
@@ -87,8 +91,7 @@ def test_slope_and_argmax_helpers_recover_known_answers():
 @pytest.mark.slow
 def test_fig3_quick_distances_boundary_and_uniformity(tmp_path, capsys):
     out = tmp_path / "fig3"
-    assert main(["study", "fig3", "--quick", "--workers", "2", "-o", str(out), "--quiet"]) == 0
-    summary = json.loads(capsys.readouterr().out)
+    summary = run_quick("fig3", out, capsys)
     assert summary["failed"] == 0 and summary["usable"] == 3
     assert (out / "fig3.png").is_file() and (out / "fig3.pdf").is_file()
     tasks = sorted((out / "tasks").glob("*.json"))
@@ -138,8 +141,7 @@ def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
 @pytest.mark.slow
 def test_fig2_quick_clusters_per_packing(tmp_path, capsys):
     out = tmp_path / "fig2"
-    assert main(["study", "fig2", "--quick", "--workers", "2", "-o", str(out), "--quiet"]) == 0
-    summary = json.loads(capsys.readouterr().out)
+    summary = run_quick("fig2", out, capsys)
     assert summary["failed"] == 0 and "fig2.png" in summary["figures"]
     rows = [json.loads(f.read_text()) for f in sorted((out / "tasks").glob("*.json"))]
     assert len(rows) == 6
@@ -161,9 +163,7 @@ def test_fig2_quick_clusters_per_packing(tmp_path, capsys):
 @pytest.mark.slow
 def test_pointforce_quick_and_report_only(tmp_path, capsys):
     out = tmp_path / "pointforce"
-    assert main(["study", "pointforce", "--quick", "--workers", "2", "-o", str(out),
-                 "--quiet"]) == 0
-    summary = json.loads(capsys.readouterr().out)
+    summary = run_quick("pointforce", out, capsys)
     assert summary["failed"] == 0
     rows = [json.loads(f.read_text()) for f in sorted((out / "tasks").glob("*.json"))]
     for r in rows:
