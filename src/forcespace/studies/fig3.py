@@ -57,13 +57,18 @@ def centre_distances(X, centre, x0) -> tuple[np.ndarray, float]:
     return ell / lbar, float(np.linalg.norm(x0 - centre) / lbar)
 
 
-def boundary_slack(problem, analysis, X) -> np.ndarray:
-    """Smallest slack [<Fn>] of the non-implicit inequalities at each row of X (k, 2m)."""
+def free_slacks(problem, analysis, X):
+    """(rows, slack (len(rows), k) [<Fn>]): the inequalities that are not implicit
+    equalities (rows of ``problem.inequalities()``) and their slack at each row of X."""
     G, _, _ = problem.inequalities()
     free = np.setdiff1d(np.arange(G.shape[0]), analysis.implicit_rows)
-    if free.size == 0:
-        return np.full(len(X), np.inf)
-    return (-(G[free] @ np.atleast_2d(X).T)).min(axis=0) / problem.force_scale
+    return free, -(G[free] @ np.atleast_2d(X).T) / problem.force_scale
+
+
+def boundary_slack(problem, analysis, X) -> np.ndarray:
+    """Smallest slack [<Fn>] of the non-implicit inequalities at each row of X (k, 2m)."""
+    free, slack = free_slacks(problem, analysis, X)
+    return slack.min(axis=0) if free.size else np.full(slack.shape[1], np.inf)
 
 
 def ks_statistics(X, Y, columns) -> np.ndarray:
@@ -101,7 +106,8 @@ def packing_task(scene: str, n_disks: int, slice_height: float, samples: int, mu
             row["relax_projected"] = sampler.summary.get("n_projected")
     x0 = prob.x_jammed
     centres = {name: X[name].mean(0) for name in SAMPLERS}
-    slack0 = boundary_slack(prob, an, x0)[0]
+    free, slack_x0 = free_slacks(prob, an, x0)
+    slack0 = float(slack_x0.min()) if free.size else np.inf
     for a in SAMPLERS:
         row[f"n_{a}"] = int(len(X[a]))
         row[f"eta_{a}"] = eta(X[a])
@@ -117,10 +123,9 @@ def packing_task(scene: str, n_disks: int, slice_height: float, samples: int, mu
         # samples nearer to the boundary than x0 (about 0: x0 sits at the edge of S)
         row[f"jammed_slack_rank_{a}"] = float((slack < slack0).mean())
     row["eta_null"] = eta(X["null"])
-    G, owner, _ = prob.inequalities()
-    free = np.setdiff1d(np.arange(G.shape[0]), an.implicit_rows)
-    tight = free[(-(G[free] @ x0)) / prob.force_scale < BOUNDARY_TOL]
-    row["jammed_min_slack"] = float(slack0)
+    _, owner, _ = prob.inequalities()
+    tight = free[slack_x0[:, 0] < BOUNDARY_TOL]
+    row["jammed_min_slack"] = slack0
     row["jammed_tight_contacts"] = int(np.unique(owner[tight]).size)
     spread = X["hit_and_run"].std(0) / prob.force_scale
     cols = np.flatnonzero(spread > VARYING_TOL)
