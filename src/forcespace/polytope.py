@@ -555,13 +555,8 @@ def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 60, active=None):
     """
     G, _, _ = problem.inequalities()
     Gd = G.toarray()
-    Ad = problem.A.toarray()
-    fixed = problem.fixed_columns()
-    m2 = problem.n_columns
-    E_fix = np.zeros((fixed.size, m2))
-    E_fix[np.arange(fixed.size), fixed] = 1.0
-    Ceq = np.vstack([Ad, E_fix])
-    ceq = np.concatenate([problem.b, np.zeros(fixed.size)])
+    Eq, ceq = _eq_system(problem)
+    Ceq = Eq.toarray()
     Q = _range_basis(Ceq)
     scale = problem.force_scale
     if active is None:
@@ -740,14 +735,10 @@ def l1_nearest(problem: StaticsProblem, x) -> np.ndarray:
     # HiGHS is feasible to 1e-7 only: move exactly onto the equalities and the rows the
     # LP left tight (a minimum-norm step of that size; the other rows keep their slack)
     y = res.x[:m2]
-    fixed = P.fixed_columns()
-    E_fix = np.zeros((fixed.size, m2))
-    E_fix[np.arange(fixed.size), fixed] = 1.0
+    Eq, rhs = _eq_system(P)
     Gd = G.toarray()
     tight = np.flatnonzero(Gd @ y > -1e-6)
-    y = _eq_projection(y, np.vstack([P.A.toarray(), E_fix]),
-                       np.concatenate([P.b, np.zeros(fixed.size)]), Gd[tight])
-    return y * s
+    return _eq_projection(y, Eq.toarray(), rhs, Gd[tight]) * s
 
 
 def max_load_factor(problem: StaticsProblem, d) -> float:
