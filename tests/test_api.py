@@ -97,7 +97,15 @@ def test_scale_box_keeps_the_box_shape(tmp_path, capsys):
     assert big["disks.n"] == 800
     assert big["box.width"] == pytest.approx(2 * sc["box.width"])
     assert big["analysis.slice_height"] == pytest.approx(2 * sc["analysis.slice_height"])
-    assert "box.width 42 -> 84 R" in what
+    assert "box.width 42 -> 84" in what
+    # the same pressure, plate mass per width, physical step and rest criterion
+    assert big["plates.top_force"] / big["box.width"] == pytest.approx(
+        sc["plates.top_force"] / sc["box.width"])
+    assert big["plates.top_mass"] == pytest.approx(2 * sc["plates.top_mass"])
+    # dt is in units of sqrt(rho R^3 / F): the physical step is dt / sqrt(F)
+    assert big["solver.dt"] / big["plates.top_force"] ** 0.5 == pytest.approx(
+        sc["solver.dt"] / sc["plates.top_force"] ** 0.5)
+    assert big["jamming.velocity_tol"] == pytest.approx(sc["jamming.velocity_tol"] / 2 ** 0.5)
     assert main(["pack", str(ROOT / "inputs" / "quick.toml"), "--scale-box",
                  "-o", str(tmp_path / "p.h5")]) == 2
     assert "--scale-box" in capsys.readouterr().err

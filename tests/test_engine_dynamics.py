@@ -6,14 +6,20 @@ from engine_cases import free_bodies, step
 from forcespace.contacts import detect_contacts
 
 
-def test_disk_in_a_groove_of_two_fixed_supports_carries_hand_derived_forces():
+# the paper's sweep (fresh random order, plain Gauss-Seidel) and the fast one (runs of
+# contacts shuffled, over-relaxed): the same fixed point, so the same hand-derived statics
+SWEEPS = [dict(), dict(relaxation=1.6, sweep_block=2)]
+
+
+@pytest.mark.parametrize("sweep", SWEEPS)
+def test_disk_in_a_groove_of_two_fixed_supports_carries_hand_derived_forces(sweep):
     # disk 0 (r = 1) settles onto fixed disks 1, 2 (r = 1) at (+-1.2, 0) under gravity g:
     # contact normals make angle th with the vertical, sin th = 1.2 / 2; frictionless
     # statics: each support pushes with N = W / (2 cos th).
     g, r = 1.0, 1.0
     bodies = free_bodies([0.0, -1.2, 1.2], [1.7, 0.0, 0.0], [r, r, r], fixed=(1, 2),
                          gravity=g, rotation=False)
-    keys, rn, rt, _ = step(bodies, 400, dt=0.01)
+    keys, rn, rt, _ = step(bodies, 400, dt=0.01, **sweep)
     W = np.pi * r**2 * g
     th = np.arcsin(1.2 / 2.0)
     assert bodies.y[0] == pytest.approx(np.sqrt(4 - 1.2**2), abs=1e-9)
@@ -23,11 +29,12 @@ def test_disk_in_a_groove_of_two_fixed_supports_carries_hand_derived_forces():
     assert abs(bodies.vx[0]) < 1e-12 and abs(bodies.vy[0]) < 1e-12
 
 
-def test_disk_in_groove_with_friction_is_in_equilibrium_and_symmetric():
+@pytest.mark.parametrize("sweep", SWEEPS)
+def test_disk_in_groove_with_friction_is_in_equilibrium_and_symmetric(sweep):
     g, mu = 1.0, 0.3
     bodies = free_bodies([0.0, -1.2, 1.2], [1.7, 0.0, 0.0], [1, 1, 1], fixed=(1, 2),
                          gravity=g)
-    keys, rn, rt, stats = step(bodies, 400, dt=0.01, mu=mu)
+    keys, rn, rt, stats = step(bodies, 400, dt=0.01, mu=mu, **sweep)
     ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r, 3, 100.0, False, False,
                                    False, False, 0.5)
     n = floats[:, :2]

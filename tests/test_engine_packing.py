@@ -30,6 +30,23 @@ def test_quick_frictionless_packing_is_jammed_isostatic_and_in_equilibrium(quick
     assert F[quick.a == BOTTOM, 1].sum() == pytest.approx(quick.top_force, rel=1e-9)
 
 
+@pytest.mark.parametrize("mu", [0.0, 0.3])
+def test_fast_sweeps_jam_to_the_same_kind_of_static_state(quick, mu):
+    # runs of 8 contacts in spatial order, over-relaxed: a jammed rest state in
+    # equilibrium; frictionless it is isostatic like the paper sweep's packing
+    scene = load_scene(QUICK).with_overrides(**{"solver.sweep_block": 8,
+                                                "solver.relaxation": 1.6, "physics.mu": mu})
+    p = build_packing(scene, show_progress=False)
+    s = p.summary()
+    assert s["equilibrium_residual"] <= 1e-10 and s["max_overlap"] <= 1e-6
+    assert (np.abs(p.ft) <= mu * p.fn * (1 + 1e-12) + 1e-300).all()
+    if mu == 0:
+        assert p.force_bearing().sum() == 2 * (~p.rattlers()).sum()
+        assert p.n_disks == quick.n_disks and not np.array_equal(p.x, quick.x)
+    else:
+        assert 3.0 < s["z"] < 4.0
+
+
 def test_packing_file_round_trip_is_exact_and_self_describing(quick, tmp_path):
     import h5py
     path = tmp_path / "q.h5"

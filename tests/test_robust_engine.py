@@ -93,6 +93,8 @@ def test_absurd_overrides_are_refused_before_any_work(tmp_path, capsys, args, fi
     ("disks", "radius_max = 1e300", "disks.radius_max"),
     ("solver", "dt = 1e7", "solver.dt"),
     ("physics", "mu = nan", "physics.mu"),
+    ("solver", "relaxation = 2.0", "solver.relaxation"),   # SOR diverges from omega = 2 on
+    ("solver", "sweep_block = -1", "solver.sweep_block"),
 ])
 def test_overflowing_scene_values_are_refused(tmp_path, capsys, section, line, field):
     scene = tmp_path / "s.toml"

@@ -75,7 +75,8 @@ def contact_arrays(ints, floats, r, n, mu_disk, mu_wall):
 def _run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
               width, periodic, has_bottom, has_top, has_sides, margin,
               dt, tol, max_sweeps, mu_disk, mu_wall, rotation,
-              keys, rn, rt, nsteps, seed, overlap_correction=0.0, overlap_slop=0.0):
+              keys, rn, rt, nsteps, seed, overlap_correction=0.0, overlap_slop=0.0,
+              relaxation=1.0, sweep_block=0):
     """The kernel of :func:`run_steps` (positional arrays; stats as an (8,) array
     in the order of :class:`StepStats`)."""
     stats = np.zeros(8)
@@ -100,7 +101,8 @@ def _run_steps(x, y, th, vx, vy, w, r, n, inv_mx, inv_my, inv_i, fy_ext,
         sw, rel, nn, ntg = nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt,
                                       vx, vy, w, inv_mx, inv_my, inv_i, dt, tol,
                                       max_sweeps, (seed + 7919 * step) % 2147483647,
-                                      overlap_correction, overlap_slop)
+                                      overlap_correction, overlap_slop, relaxation,
+                                      sweep_block)
         stats[0] += sw
         stats[1] = max(stats[1], sw)
         stats[2] = max(stats[2], rel)
@@ -163,6 +165,8 @@ class StepParams(NamedTuple):
     rotation: bool               # integrate disk rotation
     overlap_correction: float = 0.0   # see forcespace.nlgs.nlgs_solve
     overlap_slop: float = 0.0         # [R]
+    relaxation: float = 1.0           # NLGS over-relaxation omega (see nlgs_solve)
+    sweep_block: int = 0              # NLGS sweep order: 0 single contacts, B runs of B
 
 
 class ContactState(NamedTuple):
@@ -205,7 +209,8 @@ def run_steps(bodies, params: StepParams, contacts: ContactState, nsteps: int,
         b.x, b.y, b.th, b.vx, b.vy, b.w, b.r, b.r.shape[0], b.inv_mx, b.inv_my, b.inv_i,
         b.fy_ext, p.width, p.periodic, p.has_bottom, p.has_top, p.has_sides, p.margin, p.dt,
         p.tol, p.max_sweeps, p.mu_disk, p.mu_wall, p.rotation, contacts.keys, contacts.rn,
-        contacts.rt, nsteps, seed, p.overlap_correction, p.overlap_slop)
+        contacts.rt, nsteps, seed, p.overlap_correction, p.overlap_slop, p.relaxation,
+        p.sweep_block)
     return ContactState(keys, rn, rt), StepStats(
         int(st[0]), int(st[1]), float(st[2]), int(st[3]), int(st[4]), float(st[5]),
         float(st[6]), int(st[7]))

@@ -65,6 +65,9 @@ def loose_start(scene: Scene, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
 
     Returns x, y, r (n,) and the box height [R] at the scene's initial packing
     fraction. Disks are placed largest first; x is periodic if the scene says so.
+    With ``solver.sweep_block`` > 0 the disks are then numbered row by row (rows
+    one largest diameter high, x increasing), so that contacts sorted by disk
+    index are near each other in space.
     """
     r = np.sort(random_radii(scene, rng))[::-1].copy()
     width = scene["box.width"]
@@ -87,6 +90,9 @@ def loose_start(scene: Scene, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
             raise NumericalError(
                 f"could not place disk {i} without overlap at initial packing fraction "
                 f"{scene['box.initial_packing_fraction']}: lower box.initial_packing_fraction")
+    if scene["solver.sweep_block"] > 0:   # number the disks row by row (local sweeps)
+        order = np.lexsort((x, np.floor(y / (2.0 * r.max()))))
+        x, y, r = x[order], y[order], r[order]
     return x, y, r, height
 
 
@@ -150,7 +156,8 @@ def step_params(scene: Scene) -> StepParams:
         tol=scene["solver.tolerance"], max_sweeps=scene["solver.max_sweeps"],
         mu_disk=scene["physics.mu"], mu_wall=scene["physics.plate_mu"], rotation=scene.rotation,
         overlap_correction=scene["solver.overlap_correction"],
-        overlap_slop=scene["solver.overlap_slop"])
+        overlap_slop=scene["solver.overlap_slop"], relaxation=scene["solver.relaxation"],
+        sweep_block=scene["solver.sweep_block"])
 
 
 CHECKPOINT_SECONDS = 30.0

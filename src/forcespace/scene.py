@@ -144,6 +144,14 @@ SCHEMA: dict[str, Key] = {
                                      "per step (0: Unger's rule, overlaps never pushed apart)"),
     "solver.overlap_slop": Key(float, 2e-7, _nonneg,
                                "overlap [R] tolerated without correction"),
+    "solver.relaxation": Key(float, 1.0, lambda v, _: None if 0 < v < 2 else
+                             "must be in (0, 2)",
+                             "NLGS over-relaxation omega (1: plain Gauss-Seidel; the "
+                             "converged forces do not depend on it)"),
+    "solver.sweep_block": Key(int, 0, _int_at_least(0),
+                              "NLGS sweep order: 0 = every sweep a fresh random order of "
+                              "single contacts (the paper's); B > 0 = runs of B contacts in "
+                              "spatial order, the runs shuffled (disks numbered row by row)"),
     "solver.contact_margin": Key(float, 0.1, _positive,
                                  "pairs closer than this gap [R] enter the contact list"),
     "jamming.velocity_tol": Key(float, 1e-7, _positive,
@@ -217,17 +225,28 @@ class Scene:
         return "\n".join(lines) + "\n"
 
     def scaled_to(self, n: int) -> tuple["Scene", str]:
-        """The scene with ``n`` disks in a box of the same shape: width and slice
-        height scale by sqrt(n / n0) (the packing's height follows by itself).
+        """The scene with ``n`` disks in a box of the same shape and the same dynamics
+        per unit width: width and slice height scale by f = sqrt(n / n0) (the
+        packing's height follows by itself); with a load-controlled top plate its
+        load and mass scale by f too (same pressure, same plate mass per width), and
+        since time and speed are measured in units built from the plate load,
+        ``solver.dt`` scales by sqrt(f) and ``jamming.velocity_tol`` by 1/sqrt(f)
+        (the same physical step and rest criterion).
         Returns (scene, one-line description of what was scaled)."""
         n0 = self["disks.n"]
         f = math.sqrt(n / n0)
-        w0, h0 = self["box.width"], self["analysis.slice_height"]
-        sc = self.with_overrides(**{"disks.n": n, "box.width": w0 * f,
-                                    "analysis.slice_height": h0 * f})
-        what = (f"n {n0} -> {n}: box.width {w0:g} -> {sc['box.width']:.6g} R, "
-                f"analysis.slice_height {h0:g} -> {sc['analysis.slice_height']:.6g} R "
-                f"(x sqrt({n}/{n0}))")
+        keys = ["box.width", "analysis.slice_height"]
+        new = {"disks.n": n, "box.width": self["box.width"] * f,
+               "analysis.slice_height": self["analysis.slice_height"] * f}
+        if self["plates.top"] == "load":
+            keys += ["plates.top_force", "plates.top_mass", "solver.dt", "jamming.velocity_tol"]
+            new.update({"plates.top_force": self["plates.top_force"] * f,
+                        "plates.top_mass": self["plates.top_mass"] * f,
+                        "solver.dt": self["solver.dt"] * math.sqrt(f),
+                        "jamming.velocity_tol": self["jamming.velocity_tol"] / math.sqrt(f)})
+        sc = self.with_overrides(**new)
+        what = (f"n {n0} -> {n} (f = sqrt({n}/{n0}) = {f:.4g}): "
+                + ", ".join(f"{k} {self[k]:g} -> {sc[k]:.6g}" for k in keys))
         return sc, what
 
     def with_overrides(self, **overrides) -> "Scene":
