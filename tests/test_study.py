@@ -202,3 +202,74 @@ def test_location_verdict_half_a_decade():
     assert fig1.location_verdict(0.0316227766, 0.164) == "reproduced"
     assert fig1.location_verdict(0.01, 1.0) == "not decidable"
     assert fig1.location_verdict(0.5, 10.0) == "refuted"
+
+
+@pytest.mark.slow
+def test_size_quick_scaled_boxes_and_indeterminacy_bookkeeping(tmp_path, capsys):
+    from forcespace.studies import size
+    out = tmp_path / "size"
+    summary = run_quick("size", out, capsys)
+    assert summary["failed"] == 0 and summary["rows"] == 4
+    assert (out / "size.png").is_file() and (out / "size.pdf").is_file()
+    assert (out / "size.csv").is_file() and (out / "size_by_n.csv").is_file()
+    (verdict,) = json.loads((out / "verdicts.json").read_text())["verdicts"]
+    assert verdict["claim"].startswith("hypothesis: eta grows with n")
+    assert verdict["claim"] in (tmp_path / "REPORT.md").read_text()
+    before = {f.name: f.read_text() for f in (out / "tasks").glob("*.json")}
+    done = run_tasks(size.tasks(quick=True), out, progress=False)   # resumes: nothing to run
+    assert {f.name: f.read_text() for f in (out / "tasks").glob("*.json")} == before
+    rows = {r["task"]: r for r in done}
+    assert sorted(rows) == ["n40_mu0.1_s1", "n40_mu0.1_s2", "n60_mu0.1_s1", "n60_mu0.1_s2"]
+    # the box keeps its shape: width and slice height scale by sqrt(n / 40) from the
+    # quick scene (20 R, 10 R), so the slice holds the same share of the disks
+    share = {}
+    for r in done:
+        f = np.sqrt(r["n"] / 40)
+        assert r["width"] == pytest.approx(20 * f) and r["slice_height"] == pytest.approx(10 * f)
+        share.setdefault(r["n"], []).append(r["slice_disks"] / r["n"])
+    assert 0.75 < np.mean(share[60]) / np.mean(share[40]) < 1.33
+    for r in done:
+        nc, n_in, d = r["slice_contacts"], r["slice_disks"], r["dim_S"]
+        # S lies in the null space of 3 n_in equilibrium rows: 2Nc - 3n_in <= degree, and
+        # implicit equalities (sliding, zero-force contacts) only lower dim S further
+        assert 2 * nc - 3 * n_in <= r["degree_of_indeterminacy"] and 0 <= d <= \
+            r["degree_of_indeterminacy"]
+        # frictional packings are hypostatic against frictionless isostaticity (z < 4)
+        assert 0 <= r["dim_S_over_Nc"] < 0.5
+        # eta vanishes exactly when S is a point, and a spread is smaller than the forces
+        assert (r["eta_hit_and_run"] > 0) == (d > 0) and r["eta_hit_and_run"] < 1
+        assert r["n_elementary"] <= d and r["density_rho"] == pytest.approx(
+            r["n_elementary"] / n_in)
+        assert 0 <= r["largest_domain_fraction"] <= r["varying_fraction"] <= 1
+        assert (r["varying_fraction"] > 0) == (d > 0)
+        # the relax walk only up to relax_max_n = 40 disks
+        if r["n"] == 40:
+            assert (r["eta_relax"] > 0) == (d > 0)
+        else:
+            assert r["eta_relax"] is None and "n_relax" not in r
+    # the larger packings are indeterminate: a fit of eta against n exists
+    assert all(rows[f"n60_mu0.1_s{s}"]["dim_S"] > 0 for s in (1, 2))
+
+
+def test_size_slope_decision_and_what_would_decide_it():
+    from forcespace.studies import size
+    n = np.repeat([100.0, 200.0, 500.0, 1000.0, 2000.0], 3)
+    wiggle = np.exp(np.tile([-0.02, 0.0, 0.02], 5))
+    grows = size.slope_interval(n, 1e-3 * n ** 0.5 * wiggle)
+    assert grows["slope"] == pytest.approx(0.5, abs=1e-3)
+    assert size.classify(*grows["ci95"]) == "grows"
+    flat = size.slope_interval(n, 1e-3 * wiggle)
+    assert size.classify(*flat["ci95"]) == "intensive"
+    assert size.classify(-0.5, -0.1) == "decreases"
+    # large scatter: undecided; the size said to decide it does, at the fitted scatter
+    rng = np.random.default_rng(3)
+    noisy = size.slope_interval(n, 1e-3 * n ** 0.05 * np.exp(rng.normal(0, 0.15, n.size)))
+    assert size.classify(*noisy["ci95"]) == "undecided"
+    need = size.needed(noisy, n)
+    big = need["size_with_added_packings"]
+    assert big is not None and big > 2000 and need["packings_factor_same_sizes"] > 1
+    from scipy.stats import t as student
+    xx = np.log(np.concatenate([n, np.full(need["add_packings"], float(big))]))
+    hw = student.ppf(0.975, xx.size - 2) * noisy["resid_sd"] / np.sqrt(
+        ((xx - xx.mean()) ** 2).sum())
+    assert hw <= need["half_width_needed"] < noisy["ci95"][1] - noisy["slope"]

@@ -5,4 +5,4 @@ Each study module has ``tasks(quick: bool) -> list[Task]`` and
 """
 STUDIES = {"fig1": "forcespace.studies.fig1", "fig2": "forcespace.studies.fig2",
            "fig3": "forcespace.studies.fig3", "pointforce": "forcespace.studies.pointforce",
-           "selection": "forcespace.studies.selection"}
+           "selection": "forcespace.studies.selection", "size": "forcespace.studies.size"}
