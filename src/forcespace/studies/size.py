@@ -337,9 +337,10 @@ def summarize(results: list[dict], out) -> dict:
             xs = np.array([pts[:, 0].min(), pts[:, 0].max()])
             ly = np.log(pts[:, 1]).mean() + f["slope"] * (np.log(xs) - np.log(pts[:, 0]).mean())
             a1.plot(xs, np.exp(ly), "-", color=c, lw=0.8)
-        a1.errorbar([b["n"] for b in ok], [b["eta_hit_and_run_mean"] for b in ok],
-                    [b["eta_hit_and_run_sd"] for b in ok], fmt="o", color=c, capsize=2,
-                    label=lab)
+        mean = np.array([b["eta_hit_and_run_mean"] for b in ok])
+        sd = np.array([b["eta_hit_and_run_sd"] for b in ok])
+        a1.errorbar([b["n"] for b in ok], mean, [np.minimum(sd, 0.95 * mean), sd],  # log axis
+                    fmt="o", color=c, capsize=2, label=lab)
         rel = [b for b in mine if b["eta_relax_mean"]]
         a1.plot([b["n"] for b in rel], [b["eta_relax_mean"] for b in rel], "s", color=c,
                 mfc="none", ms=5)
@@ -354,7 +355,7 @@ def summarize(results: list[dict], out) -> dict:
         a4.plot([b["n"] for b in ok], [b["largest_domain_fraction_mean"] for b in ok], "^--",
                 color=c, mfc="none", label=f"mu = {mu:g}: largest domain / Nc")
     a1.set(xscale="log", yscale="log", xlabel="n (disks)", ylabel="eta (hit-and-run)",
-           title="force ambiguity (open squares: relax walk)")
+           title="force ambiguity (mean ± sd, eta = 0 included; open: relax walk)")
     a1.legend(fontsize=7)
     a2.set(xscale="log", xlabel="n (disks)", ylabel="dim S / Nc (slice)",
            title="dimension of S per slice contact")
