@@ -449,11 +449,14 @@ def _text(rows) -> str:
     capped = [r for r in rows if r.get("n_hit_and_run") is not None
               and r["n_hit_and_run"] < max(x.get("n_hit_and_run") or 0 for x in rows)]
     relax_n = sorted({r["n"] for r in rows if r.get("n_relax")})
+    small = min(rows, key=lambda r: r["n"])
     return (
         f"{len(rows)} packings, n = {', '.join(map(str, sizes))} disks at mu = "
         f"{', '.join(f'{m:g}' for m in mus)}, one new packing per (n, mu, seed). The box "
-        f"keeps the paper's shape: width and slice height scale with sqrt(n / n0) (paper: "
-        f"42 R and 28 R at n0 = 200), so the slice holds the same share of the disks. "
+        f"keeps the paper's shape: width and slice height scale with sqrt(n / n0) from the "
+        f"scene's n0 (paper: 42 R and 28 R at n0 = 200; here {small['width']:.3g} R and "
+        f"{small['slice_height']:.3g} R at n = {small['n']}), so the slice holds the same "
+        f"share of the disks. "
         f"eta is measured with uniform hit-and-run at every size (the relax walk, open "
         f"squares, only at n <= {relax_n[-1] if relax_n else '-'}: its cost grows much "
         f"faster with dim S); the slope of log eta against log n is fitted per mu over the "
