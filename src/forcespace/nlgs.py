@@ -106,7 +106,9 @@ def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
     ``relaxation`` = omega in (0, 2): projected successive over-relaxation,
     R <- proj(R + omega (R_GS - R)), R_GS the unprojected single-contact
     solution; omega = 1 is plain Gauss-Seidel. Both leave the fixed points
-    (the converged forces) unchanged.
+    (the converged forces) unchanged. Over-relaxation can oscillate where the
+    optimal omega is near 1 (small, strongly frictional systems), so a solve that
+    has not converged after half of ``max_sweeps`` finishes with omega = 1.
     ``overlap_correction`` = beta in [0, 1] and ``overlap_slop`` = s >= 0: a
     contact overlapping by more than s (gap < -s) aims at removing the fraction
     beta of the excess in this step (g+ -> beta*(g + s)); smaller overlaps are
@@ -134,6 +136,8 @@ def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
     sweeps = 0
     for sweep in range(max_sweeps):
         sweeps = sweep + 1
+        if sweep == max_sweeps // 2:
+            relaxation = 1.0   # over-relaxation that has not converged: plain Gauss-Seidel
         if block > 0:
             state = _block_order(order, runs, block, state)
         else:
