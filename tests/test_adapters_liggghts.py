@@ -80,3 +80,25 @@ def test_refuses_frictional_loads_and_missing_binary(tmp_path):
         L.write_deck(soft_problem(p, top="loads"), tmp_path / "d")
     with pytest.raises(L.LiggghtsError, match="apt-get install liggghts"):
         L.find_binary("no-such-liggghts-binary")
+
+
+def test_snapshots_trace_the_run_to_its_final_state(packing, tmp_path):
+    from forcespace.polytope import distance_to_S
+    from forcespace_adapters.distance import soft_vector
+    prob = soft_problem(packing)
+    d = tmp_path / "deck"
+    L.write_deck(prob, d, L.LiggghtsOptions(kn=1e3 * prob.force_scale, max_steps=400_000,
+                                            snapshot_every=5000))
+    st = L.run_deck(d, timeout=120)
+    snaps = L.read_snapshots(d, packing)
+    steps = [s[0] for s in snaps]
+    secs = [s[1] for s in snaps]
+    assert len(snaps) >= 3 and steps == sorted(steps) and steps[-1] <= st["steps"]
+    assert steps[0] == 5000 and all(s % 5000 == 0 for s in steps)   # from the end of the ramp
+    assert 0 < secs[0] and secs == sorted(secs) and secs[-1] <= st["wall_time_s"]
+    S = make_problem(packing, "plate")
+    dist = [distance_to_S(S, soft_vector(packing, s[2], S)[1]).relative for s in snaps]
+    final = compare(packing, L.read_result(d, packing)[0], S)["relative_distance"]
+    assert dist[-1] < dist[0]                     # settling brings the network towards S
+    assert dist[-1] == pytest.approx(final, rel=0.1, abs=1e-6)   # last dump ~ final state
+    assert not snaps[0][3]["converged"]

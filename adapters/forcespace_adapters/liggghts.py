@@ -11,6 +11,9 @@ Deck directory layout (written atomically: a temporary folder renamed into place
     screen.txt      unbuffered screen output (-echo screen), log.liggghts
     atoms.dump      final per-atom state (id x y radius fx fy tqz, wall force)
     contacts.dump   final per-contact forces from compute pair/gran/local
+    snap_atoms.dump, snap_contacts.dump
+                    with ``snapshot_every`` > 0: the same every N steps after the
+                    ramp (read with :func:`read_snapshots`)
     status.json     converged flag, steps, wall time, return code
 
 Mapping (units identical to forcespace: lengths R, forces F0, density rho):
@@ -72,7 +75,9 @@ class LiggghtsOptions:
     loads rise linearly from 0; check_every: steps between convergence checks;
     max_steps: give up after this many steps (status converged = False);
     plate_time: relaxation time of the load-controlled top plate in t_c (the
-    plate is overdamped: velocity = (force on it - target) / (N_top kn plate_time t_c)).
+    plate is overdamped: velocity = (force on it - target) / (N_top kn plate_time t_c));
+    snapshot_every: if > 0, after the ramp dump atoms and contacts every this many
+    steps (snap_*.dump, see :func:`read_snapshots`); 0 = final state only.
     """
 
     kn: float = 1e4
@@ -84,6 +89,7 @@ class LiggghtsOptions:
     ramp_steps: int = 5000
     check_every: int = 1000
     max_steps: int = 2_000_000
+    snapshot_every: int = 0
 
     def validate(self, source="options"):
         checks = [("kn", self.kn > 0, "> 0"), ("kt_ratio", self.kt_ratio >= 0, ">= 0"),
@@ -93,7 +99,8 @@ class LiggghtsOptions:
                   ("plate_time", self.plate_time > 0, "> 0"),
                   ("ramp_steps", self.ramp_steps >= 1, ">= 1"),
                   ("check_every", self.check_every >= 1, ">= 1"),
-                  ("max_steps", self.max_steps >= self.ramp_steps, ">= ramp_steps")]
+                  ("max_steps", self.max_steps >= self.ramp_steps, ">= ramp_steps"),
+                  ("snapshot_every", self.snapshot_every >= 0, ">= 0")]
         check_options(self, checks, source)
 
 
@@ -199,6 +206,20 @@ variable perr equal abs(c_ftop+{_fmt(T)})
         plate_cmds, thermo_extra, wall_cols, stop_plate, plate_print = "", "", "", "", ""
         cond = f'"${{rmax}} < {_fmt(tol_abs)}"'
 
+    def dumps(tag, every, prefix):
+        """Dump commands: contacts (local) and atoms (custom) every ``every`` steps."""
+        return (f"dump {tag}c all local {every} {prefix}contacts.dump "
+                + " ".join(f"c_cpg[{k}]" for k in range(1, 14)) + "\n"
+                f"dump_modify {tag}c format \"%.0f %.0f %.0f{' %.17g' * 10}\"\n"
+                f"dump {tag}a all custom {every} {prefix}atoms.dump id x y radius fx fy tqz "
+                f"f_force_wall[1] f_force_wall[2]{wall_cols}\n"
+                f"dump_modify {tag}a format \"%d{' %.17g' * (8 + (2 if plate else 0))}\"")
+
+    snap_on = snap_off = ""
+    if opt.snapshot_every:     # after the ramp, inside the check loop's runs
+        snap_on = dumps("s", opt.snapshot_every, "snap_") + "\n"
+        snap_off = "undump sc\nundump sa\n"
+
     directory = check_output_dir(directory)
     directory.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", dir=directory.parent))
@@ -289,7 +310,7 @@ thermo {opt.check_every}
 {ramp_cmds}
 variable s delete
 variable s equal 1.0
-run {opt.check_every}
+{snap_on}run {opt.check_every}
 # later chunks without re-setup ("pre no"): a full setup every chunk kicked the state;
 # the free drift along x (frictionless plates, periodic x) is removed before each chunk
 variable it loop {n_chunks}
@@ -304,13 +325,10 @@ jump SELF final
 label converged
 print "FORCESPACE_STATUS converged"
 label final
-
+{snap_off}
 {stop_plate}velocity all set 0.0 0.0 0.0
 set group all omegaz 0.0
-dump dc all local 1 contacts.dump c_cpg[1] c_cpg[2] c_cpg[3] c_cpg[4] c_cpg[5] c_cpg[6] c_cpg[7] c_cpg[8] c_cpg[9] c_cpg[10] c_cpg[11] c_cpg[12] c_cpg[13]
-dump_modify dc format "%.0f %.0f %.0f %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g"
-dump da all custom 1 atoms.dump id x y radius fx fy tqz f_force_wall[1] f_force_wall[2]{wall_cols}
-dump_modify da format "%d{' %.17g' * (8 + (2 if plate else 0))}"
+{dumps("d", 1, "")}
 run 0
 {plate_print}print "FORCESPACE_DONE"
 """
@@ -378,11 +396,8 @@ def run_deck(directory, binary: str | None = None, timeout: float | None = None)
         msg = "; ".join(errors[:3]) or (text.strip().splitlines() or ["(no output)"])[-1]
         raise LiggghtsError(f"{d}: LIGGGHTS failed (exit code {rc}): {msg} "
                             f"(full log: {d / 'screen.txt'})")
-    steps = 0
-    for ln in text.splitlines():
-        if ln.startswith("Loop time of"):
-            parts = ln.split()
-            steps += int(parts[parts.index("for") + 1])
+    loops = _loop_seconds(text.splitlines())
+    steps = int(loops[-1, 0]) if loops.size else 0
     status = {"converged": "FORCESPACE_STATUS converged" in text, "steps": steps,
               "wall_time_s": wall, "return_code": rc, "binary": exe}
     tmp = d / ".status.json.tmp"
@@ -391,13 +406,76 @@ def run_deck(directory, binary: str | None = None, timeout: float | None = None)
     return status
 
 
-def _read_dump_table(path, section: str) -> np.ndarray:
+def _read_dump_blocks(path, section: str) -> dict:
+    """{timestep: table} of every block of a dump file (a later block of the same step wins)."""
     lines = Path(path).read_text().splitlines()
-    idx = [i for i, ln in enumerate(lines) if ln.startswith(f"ITEM: {section}")]
-    if not idx:
+    out = {}
+    for i, ln in enumerate(lines):
+        if ln.startswith(f"ITEM: {section}"):
+            t = next(j for j in range(i - 1, -1, -1) if lines[j].startswith("ITEM: TIMESTEP"))
+            end = next((j for j in range(i + 1, len(lines)) if lines[j].startswith("ITEM")),
+                       len(lines))
+            rows = [r.split() for r in lines[i + 1:end] if r.strip()]
+            out[int(lines[t + 1])] = (np.array(rows, dtype=float).reshape(len(rows), -1)
+                                      if rows else np.zeros((0, 1)))
+    return out
+
+
+def _read_dump_table(path, section: str) -> np.ndarray:
+    blocks = _read_dump_blocks(path, section)
+    if not blocks:
         raise LiggghtsError(f"{path}: no 'ITEM: {section}' block; the run did not finish")
-    rows = [ln.split() for ln in lines[idx[-1] + 1:] if ln.strip() and not ln.startswith("ITEM")]
-    return np.array(rows, dtype=float).reshape(len(rows), -1) if rows else np.zeros((0, 1))
+    return blocks[max(blocks)]
+
+
+def _loop_seconds(screen_lines) -> np.ndarray:
+    """(k, 2) cumulative (steps, loop seconds) after each ``run`` of a LIGGGHTS log."""
+    rows, steps, secs = [], 0, 0.0
+    for ln in screen_lines:
+        if ln.startswith("Loop time of"):
+            parts = ln.split()
+            steps += int(parts[parts.index("for") + 1])
+            secs += float(parts[3])
+            rows.append((steps, secs))
+    return np.array(rows, dtype=float).reshape(-1, 2)
+
+
+def read_snapshots(directory, rigid: Packing | None = None):
+    """The intermediate states of a run with ``snapshot_every`` > 0.
+
+    Returns a list of (step, seconds, soft Packing, info), one per dump step.
+    ``seconds`` [s] is the wall time the LIGGGHTS process needed to get there:
+    its start-up, set-up and final output (process wall time minus the summed
+    ``Loop time`` of its runs, all counted before the first step) plus the loop
+    time of every run up to the end of the one containing the step. The TOP contacts' gaps assume the plate touches the disk (its
+    position is only printed at the end); the forces are those of the dump step
+    (damping terms included, velocities are not zeroed in between).
+    """
+    d = Path(directory)
+    meta, status, screen = _run_files(d)
+    atoms = _read_dump_blocks(d / "snap_atoms.dump", "ATOMS")
+    cont = _read_dump_blocks(d / "snap_contacts.dump", "ENTRIES")
+    loops = _loop_seconds(screen)
+    start = status["wall_time_s"] - (loops[-1, 1] if loops.size else 0.0)
+    out = []
+    for step in sorted(set(atoms) & set(cont)):
+        k = min(int(np.searchsorted(loops[:, 0], step)), loops.shape[0] - 1)
+        last = status["converged"] and step == status["steps"]
+        soft, info = _soft_network(d, meta, dict(status, steps=step, converged=last),
+                                   atoms[step], cont[step], float("nan"), rigid)
+        out.append((step, start + float(loops[k, 1]), soft, info))
+    return out
+
+
+def _run_files(d: Path):
+    """(deck.json, status.json, screen lines) of a finished run directory."""
+    try:
+        meta = json.loads((d / "deck.json").read_text())
+        status = json.loads((d / "status.json").read_text())
+    except FileNotFoundError as exc:
+        raise InputError(d, Path(exc.filename).name, "missing; run the deck first "
+                         "(forcespace run liggghts DIR)") from None
+    return meta, status, (d / "screen.txt").read_text(errors="replace").splitlines()
 
 
 def read_result(directory, rigid: Packing | None = None):
@@ -414,14 +492,18 @@ def read_result(directory, rigid: Packing | None = None):
     from deck.json. Returns (soft_packing, run_info dict).
     """
     d = Path(directory)
-    try:
-        meta = json.loads((d / "deck.json").read_text())
-        status = json.loads((d / "status.json").read_text())
-    except FileNotFoundError as exc:
-        raise InputError(d, Path(exc.filename).name, "missing; run the deck first "
-                         "(forcespace run liggghts DIR)") from None
-    atoms = _read_dump_table(d / "atoms.dump", "ATOMS")
-    cont = _read_dump_table(d / "contacts.dump", "ENTRIES")
+    meta, status, screen = _run_files(d)
+    y_plate = float("nan")
+    if meta.get("top_plate") is not None:
+        vals = [ln.split()[1] for ln in screen if ln.startswith("FORCESPACE_PLATE_Y ")]
+        if vals:        # decks older than this line: plate position unknown, gap 0
+            y_plate = float(vals[-1]) + float(meta.get("y_shift", 0.0))
+    return _soft_network(d, meta, status, _read_dump_table(d / "atoms.dump", "ATOMS"),
+                         _read_dump_table(d / "contacts.dump", "ENTRIES"), y_plate, rigid)
+
+
+def _soft_network(d: Path, meta, status, atoms, cont, y_plate, rigid):
+    """(soft Packing, run info) of one dumped state; see :func:`read_result`."""
     n = meta["n_disks"]
     ids = np.asarray(meta["exported"], dtype=np.int64)
     if atoms.shape[0] != ids.size:
@@ -459,12 +541,6 @@ def read_result(directory, rigid: Packing | None = None):
         GAP.append(y[i] - r[i] - ybot); PT.append(np.array([x[i], ybot]))
         FN.append(wall[i, 1]); FT.append(-wall[i, 0])   # t = (-1, 0) for n = (0, 1)
     top_force = 0.0
-    y_plate = float("nan")
-    if meta.get("top_plate") is not None:
-        screen = (d / "screen.txt").read_text(errors="replace").splitlines()
-        vals = [ln.split()[1] for ln in screen if ln.startswith("FORCESPACE_PLATE_Y ")]
-        if vals:        # decks older than this line: plate position unknown, gap 0
-            y_plate = float(vals[-1]) + ys
     for i in np.flatnonzero(walltop[:, 1] != 0.0):        # plate pushes disk i down
         A.append(int(i)); B.append(TOP); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
         yp = y_plate if np.isfinite(y_plate) else y[i] + r[i]
