@@ -185,17 +185,20 @@ class PymunkScene:
         self.scale = scale
 
     # ------------------------------------------------------------------
+    def apply_loads(self, ramp: float = 1.0):
+        """Set the fixed loads (times ``ramp``) on the bodies; pymunk clears them every step."""
+        prob = self.problem
+        for i in self.disks:
+            b = self.body[i]
+            b.force = (ramp * prob.load[i, 0], ramp * prob.load[i, 1])
+            b.torque = ramp * prob.torque[i]
+        if self.plate is not None:
+            self.plate.force = (0.0, -ramp * self.plate_force)
+
     def step(self, n: int, ramp: float | None = None):
         """Advance ``n`` steps, re-applying the loads (times ``ramp`` in [0, 1], default 1)."""
-        prob = self.problem
         for _ in range(n):
-            s = 1.0 if ramp is None else ramp
-            for i in self.disks:
-                b = self.body[i]
-                b.force = (s * prob.load[i, 0], s * prob.load[i, 1])
-                b.torque = s * prob.torque[i]
-            if self.plate is not None:
-                self.plate.force = (0.0, -s * self.plate_force)
+            self.apply_loads(1.0 if ramp is None else ramp)
             self.space.step(self.dt)
             self.steps += 1
 
@@ -273,12 +276,16 @@ class PymunkScene:
         return float(max(res.max(initial=0.0), abs(self._plate_residual)) / self.scale)
 
     # ------------------------------------------------------------------
+    def ramp(self):
+        """Raise the loads linearly from 0 to 1 over ``ramp_steps`` steps."""
+        for k in range(self.opt.ramp_steps):
+            self.step(1, (k + 1) / self.opt.ramp_steps)
+
     def run(self, progress=None) -> dict:
         """Ramp the loads in, then step until settled. Returns run statistics."""
         opt = self.opt
         t = time.perf_counter()
-        for k in range(opt.ramp_steps):
-            self.step(1, (k + 1) / opt.ramp_steps)
+        self.ramp()
         converged = False
         res = float("inf")
         while self.steps < opt.max_steps:
