@@ -449,7 +449,8 @@ def read_snapshots(directory, rigid: Packing | None = None):
     ``Loop time`` of its runs, all counted before the first step) plus the loop
     time of every run up to the end of the one containing the step. The TOP contacts' gaps assume the plate touches the disk (its
     position is only printed at the end); the forces are those of the dump step
-    (damping terms included, velocities are not zeroed in between).
+    (damping terms included, velocities are not zeroed in between; with mu = 0 the
+    disk-disk tangential forces are 0, see :func:`_soft_network`).
     """
     d = Path(directory)
     meta, status, screen = _run_files(d)
@@ -523,6 +524,7 @@ def _soft_network(d: Path, meta, status, atoms, cont, y_plate, rigid):
         walltop[k] = atoms[:, 9:11]
     W = float(meta["width"])
     A, B, IMG, NRM, PT, GAP, FN, FT = [], [], [], [], [], [], [], []
+    mu_pair = float(meta["mu"]) > 0.0
     for row in cont.reshape(-1, 13) if cont.size else []:
         i, j = int(round(row[0])) - 1, int(round(row[1])) - 1
         f_on_i = row[3:5]
@@ -534,7 +536,10 @@ def _soft_network(d: Path, meta, status, atoms, cont, y_plate, rigid):
         F = -f_on_i                      # force on b = j
         A.append(i); B.append(j); IMG.append(image); NRM.append(nv)
         GAP.append(dist - r[i] - r[j]); PT.append(np.array([x[i], y[i]]) + (r[i] + 0.5 * GAP[-1]) * nv)
-        FN.append(F @ nv); FT.append(F @ np.array([-nv[1], nv[0]]))
+        # mu = 0: the dynamics caps the tangential force at 0 (atoms' tqz stays exactly 0),
+        # but compute pair/gran/local re-evaluates it with the free spins of the disks and
+        # reports their tangential damping (~1e-2 <Fn> in snapshots of a 200-disk run)
+        FN.append(F @ nv); FT.append(F @ np.array([-nv[1], nv[0]]) if mu_pair else 0.0)
     ybot = float(meta["y_bottom"])
     for i in np.flatnonzero(wall[:, 1] != 0.0):
         A.append(BOTTOM); B.append(int(i)); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
