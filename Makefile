@@ -1,5 +1,6 @@
 # forcespace: `make demo` installs everything and runs the main job on a small scene;
-# `make test` runs the test suite; `make bench` writes benchmark figures to studies/out/.
+# `make test` runs the test suite; `make bench` writes benchmark figures to studies/out/
+# (studies/bench.py, then studies/accuracy_vs_time.py, which needs LIGGGHTS).
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -33,8 +34,9 @@ demo: install
 test: install liggghts
 	$(BIN)/python -m pytest -q
 
-bench: install
+bench: install liggghts
 	$(BIN)/python studies/bench.py
+	$(BIN)/python studies/accuracy_vs_time.py
 
 clean:
 	rm -rf out .numba_cache .pytest_cache
