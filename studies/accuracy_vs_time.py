@@ -62,8 +62,8 @@ FULL = {"packings": ("paper_mu0.1", "paper_mu0"),
         "pymunk": [(it, dt) for dt in (0.01, 0.003) for it in (5, 10, 30, 100)],
         "pymunk_steps": 5000, "points": 12, "tiles": (1, 25), "repeats": 7}
 QUICK = {"packings": ("paper_mu0.1",), "static_caps": (30, 300, 3000, 30_000, 300_000),
-         "liggghts": ((1e4, 250_000),), "pymunk": [(5, 0.01), (30, 0.01)],
-         "pymunk_steps": 1000, "points": 5, "tiles": (1, 5), "repeats": 3}
+         "liggghts": ((1e4, 100_000),), "pymunk": [(5, 0.01), (30, 0.01)],
+         "pymunk_steps": 1000, "points": 4, "tiles": (1, 5), "repeats": 3}
 
 
 def log(msg: str) -> None:
@@ -122,7 +122,7 @@ def static_curve(p, S, caps, seed=1) -> list:
 def liggghts_curve(p, S, K, work, max_steps, points, reuse=False) -> dict:
     """One LIGGGHTS run at kn = K <Fn>/R dumping every ~max_steps/150 steps; rows at
     ``points`` log-spaced dumps plus the final state (velocities zeroed). ``reuse``: read
-    a finished run with the same options in the run folder instead of running again."""
+    the finished run with these options in the run folder instead of running it."""
     from dataclasses import asdict
 
     from forcespace_adapters import liggghts as L
@@ -132,10 +132,10 @@ def liggghts_curve(p, S, K, work, max_steps, points, reuse=False) -> dict:
     d = Path(work) / f"lig_K{K:g}"
     opt = L.LiggghtsOptions(kn=K * prob.force_scale, tolerance=1e-6, max_steps=max_steps,
                             snapshot_every=every)
-    if (reuse and (d / "status.json").is_file()
-            and json.loads((d / "deck.json").read_text())["options"] == asdict(opt)):
+    if reuse:
+        if json.loads((d / "deck.json").read_text())["options"] != asdict(opt):
+            raise ValueError(f"{d}: run with other options than K={K:g}, {max_steps} steps")
         status = json.loads((d / "status.json").read_text())
-        log(f"    liggghts K={K:g}: reusing the finished run in {d.name}")
     else:
         L.write_deck(prob, d, opt)
         status = L.run_deck(d)
@@ -172,6 +172,10 @@ def pymunk_curve(p, S, iterations, dt, max_steps, points) -> dict:
     return {"iterations": iterations, "dt": dt, "points": rows}
 
 
+def _within(row, level) -> bool:
+    return row["distance"] is not None and row["distance"] <= level
+
+
 def cost_table(curves: dict, levels=LEVELS) -> dict:
     """{code: {level: [seconds, setting] or None}}: least wall time at which some setting
     of the code first came within ``level`` of S."""
@@ -179,31 +183,42 @@ def cost_table(curves: dict, levels=LEVELS) -> dict:
     for code, runs in curves.items():
         row = {}
         for lev in levels:
-            hits = [(next(r["seconds"] for r in pts if r["distance"] <= lev), label)
-                    for label, pts in runs if any(r["distance"] <= lev for r in pts)]
+            hits = [(next(r["seconds"] for r in pts if _within(r, lev)), label)
+                    for label, pts in runs if any(_within(r, lev) for r in pts)]
             row[f"{lev:g}"] = list(min(hits)) if hits else None
         out[code] = row
     return out
 
 
-def accuracy_study(name, cfg, work, reuse=False) -> dict:
-    """The three codes' accuracy-vs-time curves and cost table on one packing."""
+def packing_cost(st: dict) -> dict:
+    """:func:`cost_table` of one packing's results (static solves, LIGGGHTS, pymunk)."""
+    return cost_table({
+        "static solve": [(f"cap {r['cap']}", [r]) for r in st["static"]],
+        "LIGGGHTS": [(f"K={c['K']:g}", c["points"]) for c in st["liggghts"]],
+        "pymunk": [(f"{c['iterations']} it, dt={c['dt']:g}", c["points"]) for c in st["pymunk"]]})
+
+
+def _load(name):
+    """(packing, its plate S) of studies/packings/NAME.h5."""
     from forcespace.packing import Packing
     from forcespace.statics import plate_problem
     p = Packing.load(HERE / "packings" / f"{name}.h5")
-    S = plate_problem(p)
+    return p, plate_problem(p)
+
+
+def accuracy_study(name, cfg, work) -> dict:
+    """The three codes' accuracy-vs-time curves and cost table on one packing."""
+    p, S = _load(name)
     log(f"  {name}: {p.n_disks} disks, {S.n_contacts} contacts of S, mu = {p.mu:g}")
-    static = static_curve(p, S, cfg["static_caps"])
-    lig = [liggghts_curve(p, S, K, Path(work) / name, steps, cfg["points"], reuse)
-           for K, steps in cfg["liggghts"]]
-    pym = [pymunk_curve(p, S, it, dt, cfg["pymunk_steps"], cfg["points"])
-           for it, dt in cfg["pymunk"]]
-    curves = {"static solve": [(f"cap {r['cap']}", [r]) for r in static],
-              "LIGGGHTS": [(f"K={c['K']:g}", c["points"]) for c in lig],
-              "pymunk": [(f"{c['iterations']} it, dt={c['dt']:g}", c["points"]) for c in pym]}
-    return {"mu": p.mu, "n_disks": p.n_disks, "n_contacts": S.n_contacts, "static": static,
-            "liggghts": lig, "pymunk": pym, "cost": cost_table(curves),
-            "loadavg": os.getloadavg()}
+    st = {"mu": p.mu, "n_disks": p.n_disks, "n_contacts": S.n_contacts,
+          "static": static_curve(p, S, cfg["static_caps"]),
+          "liggghts": [liggghts_curve(p, S, K, Path(work) / name, steps, cfg["points"])
+                       for K, steps in cfg["liggghts"]],
+          "pymunk": [pymunk_curve(p, S, it, dt, cfg["pymunk_steps"], cfg["points"])
+                     for it, dt in cfg["pymunk"]],
+          "loadavg": os.getloadavg()}
+    st["cost"] = packing_cost(st)
+    return st
 
 
 def contact_iteration_rates(p, mu, iterations=100, repeats=5, work=6e5) -> dict:
@@ -242,7 +257,8 @@ def contact_iteration_rates(p, mu, iterations=100, repeats=5, work=6e5) -> dict:
         best["pym"] = min(best["pym"], pym(iterations))
         best["pym1"] = min(best["pym1"], pym(1))
     nlgs_rate = q.n_contacts * sweeps / best["nlgs"]
-    solver = n_pym * (iterations - 1) / max(best["pym"] - best["pym1"], 1e-12)
+    diff = best["pym"] - best["pym1"]          # <= 0 only when timing noise dominates
+    solver = n_pym * (iterations - 1) / diff if diff > 0 else math.nan
     raw = n_pym * iterations / best["pym"]
     out = {"n_disks": q.n_disks, "mu": mu, "nlgs_contacts": q.n_contacts, "nlgs_sweeps": sweeps,
            "pymunk_contacts": n_pym, "pymunk_iterations": iterations,
@@ -286,6 +302,10 @@ def merge_json(path: Path, key: str, value) -> None:
     os.replace(tmp, path)
 
 
+def _num(v, fmt: str) -> str:
+    return "-" if v is None or not math.isfinite(v) else format(v, fmt)
+
+
 def table_md(res: dict) -> str:
     """The cost table per packing and the per-contact-iteration ratios (markdown)."""
     lines = ["# Accuracy vs wall time (studies/accuracy_vs_time.py)", "",
@@ -319,9 +339,9 @@ def table_md(res: dict) -> str:
     for r in res["per_iteration"]:
         lines.append(
             f"| {r['n_disks']} | {r['mu']:g} | {r['nlgs_contacts']} | {r['pymunk_contacts']} | "
-            f"{r['nlgs_updates_per_s']:.3g} | {r['pymunk_solver_contact_iterations_per_s']:.3g} | "
+            f"{r['nlgs_updates_per_s']:.3g} | {_num(r['pymunk_solver_contact_iterations_per_s'], '.3g')} | "
             f"{r['pymunk_raw_contact_iterations_per_s']:.3g} | "
-            f"{r['ratio_nlgs_over_pymunk_solver']:.2f} | {r['ratio_nlgs_over_pymunk_raw']:.2f} | "
+            f"{_num(r['ratio_nlgs_over_pymunk_solver'], '.2f')} | {r['ratio_nlgs_over_pymunk_raw']:.2f} | "
             f"{r['loadavg_before'][0]:.1f} |")
     return "\n".join(lines) + "\n"
 
@@ -386,18 +406,29 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="short ladders, mu = 0.1 only (< 1 min)")
     ap.add_argument("--replot", action="store_true",
                     help="only redraw figure and table from OUT/bench.json")
-    ap.add_argument("--reuse-liggghts", action="store_true",
-                    help="read finished LIGGGHTS runs (same options) from OUT/accuracy_vs_time_work "
-                    "instead of running them again (their wall times are those recorded)")
+    ap.add_argument("--reread-liggghts", action="store_true",
+                    help="only measure the LIGGGHTS curves of OUT/bench.json again from their "
+                    "finished runs in OUT/accuracy_vs_time_work (after a reader change; wall "
+                    "times stay those recorded), keep the rest")
     ap.add_argument("--out", type=Path, help="output folder (default studies/out, "
                     "studies/out/quick with --quick)")
     args = ap.parse_args(argv)
     cfg = QUICK if args.quick else FULL
     out = args.out or (OUT / "quick" if args.quick else OUT)
     out.mkdir(parents=True, exist_ok=True)
-    if args.replot:
+    keep = not args.quick and args.out is None
+    if args.replot or args.reread_liggghts:
         res = json.loads((out / "bench.json").read_text())["accuracy_vs_time"]
-        _write_outputs(res, out, keep=False)
+        if args.reread_liggghts:
+            for name, st in res["packings"].items():
+                p, S = _load(name)
+                st["liggghts"] = [liggghts_curve(p, S, K, out / "accuracy_vs_time_work" / name,
+                                                 steps, cfg["points"], reuse=True)
+                                  for K, steps in cfg["liggghts"]]
+                st["cost"] = packing_cost(st)
+            res["liggghts_reread"] = True
+            merge_json(out / "bench.json", "accuracy_vs_time", res)
+        _write_outputs(_json_ready(res), out, keep=keep and args.reread_liggghts)
         return 0
     if shutil.which("liggghts") is None:
         log("LIGGGHTS binary missing: its curves are skipped (make liggghts)")
@@ -407,14 +438,13 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     log("accuracy vs wall time ...")
     for name in cfg["packings"]:
-        res["packings"][name] = accuracy_study(name, cfg, out / "accuracy_vs_time_work",
-                                               args.reuse_liggghts)
+        res["packings"][name] = accuracy_study(name, cfg, out / "accuracy_vs_time_work")
     log("NLGS vs pymunk per contact-iteration ...")
     res["per_iteration"] = per_iteration_study(cfg)
     res["loadavg_end"] = os.getloadavg()
     res["wall_s"] = time.perf_counter() - t0
     merge_json(out / "bench.json", "accuracy_vs_time", res)
-    _write_outputs(_json_ready(res), out, keep=not args.quick and args.out is None)
+    _write_outputs(_json_ready(res), out, keep=keep)
     log(f"wrote {out / 'accuracy_vs_time.png'} (+ .pdf, .md) and key 'accuracy_vs_time' of "
         f"{out / 'bench.json'} in {res['wall_s']:.0f} s")
     return 0

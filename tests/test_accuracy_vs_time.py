@@ -28,7 +28,6 @@ def test_static_solve_approaches_S_as_the_sweep_cap_grows(case):
     d = [r["distance"] for r in rows]
     assert d[0] > 1e-2                                   # cold start: far from S
     assert all(b < a for a, b in zip(d, d[1:]))          # measured 0.36, 0.054, 2.6e-3, 1.8e-13
-    assert [r["seconds"] for r in rows] == sorted(r["seconds"] for r in rows)
     last = rows[-1]
     assert last["sweeps"] < last["cap"] and last["residual"] <= 1e-13   # converged
     assert last["distance"] < 1e-6
@@ -55,9 +54,9 @@ def test_cost_table_takes_the_first_time_within_reach():
 
 def test_contact_iteration_rates_count_the_same_contacts(case):
     p, _ = case
-    r = avt.contact_iteration_rates(p, 0.1, iterations=10, repeats=1, work=2e4)
+    r = avt.contact_iteration_rates(p, 0.1, iterations=10, repeats=2, work=2e4)
     assert r["nlgs_contacts"] == p.n_contacts
-    # pymunk detects the jammed contacts itself: the same network up to gaps ~ its slop
+    # pymunk detects the jammed contacts itself: the same network up to tiny gaps
     assert abs(r["pymunk_contacts"] - p.n_contacts) <= 0.2 * p.n_contacts
-    assert r["pymunk_step_s"] > r["pymunk_step_1it_s"] > 0   # 10 iterations cost more than 1
-    assert r["nlgs_updates_per_s"] > 0 and r["pymunk_solver_contact_iterations_per_s"] > 0
+    # timings only: no order asserted (a loaded machine can reorder them)
+    assert r["nlgs_updates_per_s"] > 0 and r["pymunk_raw_contact_iterations_per_s"] > 0
