@@ -48,7 +48,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench import nlgs_timer, tile  # noqa: E402
+from bench import nlgs_timer, renumbered, tile  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "out"
@@ -235,6 +235,7 @@ def contact_iteration_rates(p, mu, iterations=100, repeats=5, work=6e5) -> dict:
     q = replace(p, mu=mu)
     sweeps = max(10, int(work / q.n_contacts))
     nlgs = nlgs_timer(q, mu, sweeps)
+    fast = nlgs_timer(renumbered(q), mu, sweeps, block=64)     # paper_fast.toml's sweep
     sc = PymunkScene(soft_problem(q, top="plate"), PymunkOptions(iterations=iterations))
     sc.step(20)
     n_pym = len(sc.contacts())
@@ -250,13 +251,15 @@ def contact_iteration_rates(p, mu, iterations=100, repeats=5, work=6e5) -> dict:
             total += time.perf_counter() - t0
         return total / steps
 
-    best = {"nlgs": math.inf, "pym": math.inf, "pym1": math.inf}
+    best = {"nlgs": math.inf, "fast": math.inf, "pym": math.inf, "pym1": math.inf}
     load0 = os.getloadavg()
     for _ in range(repeats):
         best["nlgs"] = min(best["nlgs"], nlgs())
+        best["fast"] = min(best["fast"], fast())
         best["pym"] = min(best["pym"], pym(iterations))
         best["pym1"] = min(best["pym1"], pym(1))
     nlgs_rate = q.n_contacts * sweeps / best["nlgs"]
+    fast_rate = q.n_contacts * sweeps / best["fast"]
     diff = best["pym"] - best["pym1"]          # <= 0 only when timing noise dominates
     solver = n_pym * (iterations - 1) / diff if diff > 0 else math.nan
     raw = n_pym * iterations / best["pym"]
@@ -268,10 +271,14 @@ def contact_iteration_rates(p, mu, iterations=100, repeats=5, work=6e5) -> dict:
            "pymunk_raw_contact_iterations_per_s": raw,
            "ratio_nlgs_over_pymunk_solver": nlgs_rate / solver,
            "ratio_nlgs_over_pymunk_raw": nlgs_rate / raw,
+           "nlgs_fast_sweep_updates_per_s": fast_rate,
+           "ratio_fast_sweep_over_pymunk_solver": fast_rate / solver,
+           "ratio_fast_sweep_over_pymunk_raw": fast_rate / raw,
            "loadavg_before": load0, "loadavg_after": os.getloadavg()}
     log(f"    n={q.n_disks:5d} mu={mu:g}: NLGS {nlgs_rate:.3g} updates/s, pymunk solver "
         f"{solver:.3g} ({raw:.3g} raw) contact-iterations/s -> ratio {nlgs_rate / solver:.2f} "
-        f"({nlgs_rate / raw:.2f} raw); load {load0[0]:.1f}")
+        f"({nlgs_rate / raw:.2f} raw); fast sweep {fast_rate:.3g} -> {fast_rate / solver:.2f} "
+        f"({fast_rate / raw:.2f} raw); load {load0[0]:.1f}")
     return out
 
 
