@@ -242,8 +242,14 @@ def diagnostics(samples: np.ndarray, chains: np.ndarray, seed: int = 0) -> dict:
 # ----------------------------------------------------------------------------
 # set-up and driver
 # ----------------------------------------------------------------------------
+FLAT_ROW = 1e-9   # |G_i N| below this: row i is constant on S (G rows and N columns O(1))
+
+
 def frame(problem: StaticsProblem, analysis=None):
-    """Affine frame of S: (x_c (2m,), N (2m, d), H0 = G_free N (p, d), s0 (p,), free rows)."""
+    """Affine frame of S: (x_c (2m,), N (2m, d), H0 = G_free N (p, d), s0 (p,), free rows).
+
+    The free rows are the inequalities that are neither implicit equalities nor
+    constant on the affine hull (|G_i N| <= FLAT_ROW)."""
     an = analysis if analysis is not None else analyze(problem, ranges=False, centre=True)
     if not an.feasible:
         raise InputError(problem.source or "problem", "S", "is empty (infeasible): nothing to sample")
@@ -258,10 +264,18 @@ def frame(problem: StaticsProblem, analysis=None):
     N = an.affine_basis
     # centre projected exactly onto the affine hull through the affine point
     xc = an.affine_point + N @ (N.T @ (an.centre - an.affine_point))
-    Gf = G[free]
-    H0 = np.asarray(Gf @ N)
-    s0 = -np.asarray(Gf @ xc)
-    return xc, N, H0, s0, free, an
+    H0 = np.asarray(G[free] @ N)
+    s0 = -np.asarray(G[free] @ xc)
+    # rows orthogonal to the affine hull up to round-off are constant on S: with a slack
+    # within round-off of 0 they are implicit equalities the LP test missed (their
+    # slack, +-1e-11, would stop the rounding), with a positive one they never bind
+    flat = np.linalg.norm(H0, axis=1) <= FLAT_ROW
+    bad = flat & (s0 < -MAX_VIOLATION * problem.force_scale)
+    if bad.any():
+        raise NumericalError(f"the centre of S violates inequality row {free[bad][0]} by "
+                             f"{-s0[bad].min() / problem.force_scale:.3g} <Fn>, and no point "
+                             f"of the affine hull satisfies it better")
+    return xc, N, H0[~flat], s0[~flat], free[~flat], an
 
 
 def rounding(H0, s0, scale, max_rounds=4, progress=False):
