@@ -35,12 +35,23 @@ VARY_TOL = 1e-6   # a contact varies in S if its fn or ft can change by more tha
 # limit, numerical difficulties, or HiGHS's "model status unknown", seen on ill-conditioned
 # slices at mu >= 0.4): the default, dual simplex without presolve, interior point.
 LP_ATTEMPTS = (("highs", {}), ("highs-ds", {"presolve": False}), ("highs-ipm", {}))
+# Large problems (n_columns >= SWEEP_MIN_COLUMNS) solve the feasibility, boundedness and
+# implicit-equality LPs by interior point (with HiGHS' crossover to a basic solution)
+# first: the simplex iteration count grows with the size, IPM's does not (measured 2x
+# faster at 2000 disks, see studies/bench.py analysis). Then the chain above.
+LP_ATTEMPTS_LARGE = (("highs-ipm", {}),) + LP_ATTEMPTS
 
 
-def _lp(c, A_ub=None, b_ub=None, A_eq=None, b_eq=None, bounds=None):
+def _attempts(problem: StaticsProblem):
+    """The LP set-ups to try for the feasibility / boundedness / implicit LPs of problem."""
+    return LP_ATTEMPTS_LARGE if problem.n_columns >= SWEEP_MIN_COLUMNS else LP_ATTEMPTS
+
+
+def _lp(c, A_ub=None, b_ub=None, A_eq=None, b_eq=None, bounds=None, attempts=None):
     """scipy/HiGHS linprog; status 0 optimal, 2 infeasible, 3 unbounded are answers,
-    anything else is retried with the next of LP_ATTEMPTS (the last result is returned)."""
-    for method, options in LP_ATTEMPTS:
+    anything else is retried with the next of ``attempts`` (default LP_ATTEMPTS; the
+    last result is returned)."""
+    for method, options in (LP_ATTEMPTS if attempts is None else attempts):
         res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds,
                       method=method, options=options)
         if res.status in (0, 2, 3):
@@ -67,7 +78,35 @@ def _eq_system(problem: StaticsProblem, extra_rows=None):
     return sp.vstack(blocks).tocsr(), np.concatenate(rhs)
 
 
+# Equality systems with at least this many columns are factorised by the frontier sweep
+# of :mod:`forcespace.nullspace` (sparse, ~linear cost) instead of one dense SVD (cubic);
+# smaller ones keep the dense SVD, so the paper-sized slices (~400 columns) give the
+# same bits as before. A sweep whose rank decisions came within SWEEP_MARGIN of the
+# threshold falls back to the dense SVD.
+SWEEP_MIN_COLUMNS = 1500
+SWEEP_MARGIN = 100.0
+
+
+def _use_sweep(M) -> bool:
+    return sp.issparse(M) and M.shape[1] >= SWEEP_MIN_COLUMNS and M.shape[0] > 0
+
+
+def _sweep(M, rhs=None, tol_rel=1e-10, basis=True):
+    """The frontier sweep of M (sparse), or None when a rank decision was close
+    (within SWEEP_MARGIN of the threshold: the caller then uses the dense SVD)."""
+    from .nullspace import sweep_null_space
+
+    res = sweep_null_space(M, rhs, tol_rel=tol_rel, basis=basis)
+    if res.kept_margin < SWEEP_MARGIN or res.dropped_margin > 1.0 / SWEEP_MARGIN:
+        return None
+    return res
+
+
 def _rank(M, tol_rel=1e-10) -> int:
+    if _use_sweep(M):
+        res = _sweep(M, tol_rel=tol_rel, basis=False)
+        if res is not None:
+            return res.rank
     M = M.toarray() if sp.issparse(M) else np.asarray(M)
     if M.size == 0:
         return 0
@@ -99,7 +138,15 @@ def _affine_hull(M, rhs, x0, tol_rel=1e-10):
     onto {M x = rhs} by the minimum-norm step, and the rank of M, all from one dense
     SVD of M. The step uses only the singular values above the rank threshold: a
     least-squares solve that keeps the round-off ones (1e-16 s_max, dependent rows)
-    moves x0 along null directions, i.e. out of S (seen: 2e-2 <Fn> on a slice)."""
+    moves x0 along null directions, i.e. out of S (seen: 2e-2 <Fn> on a slice).
+    Large sparse M (>= SWEEP_MIN_COLUMNS columns): the same three from the
+    frontier sweep (:mod:`forcespace.nullspace`), another orthonormal basis of
+    the same null space."""
+    if _use_sweep(M):
+        x0 = np.asarray(x0, float)
+        res = _sweep(M, M @ x0 - rhs, tol_rel=tol_rel)
+        if res is not None:
+            return res.basis, x0 - res.step, res.rank
     M = M.toarray() if sp.issparse(M) else np.asarray(M)
     if M.shape[0] == 0:
         return np.eye(M.shape[1]), np.asarray(x0, float).copy(), 0
@@ -205,7 +252,8 @@ def _check_feasible(problem: StaticsProblem):
     lo, hi = problem.bounds()
     bnds = _bounds_list(lo, hi)
     m2 = problem.n_columns
-    res = _lp(np.zeros(m2), G, np.zeros(G.shape[0]), problem.A, problem.b, bnds)
+    res = _lp(np.zeros(m2), G, np.zeros(G.shape[0]), problem.A, problem.b, bnds,
+              attempts=_attempts(problem))
     if res.status == 0:
         return True, res.x, None
     if res.status != 2:
@@ -246,12 +294,14 @@ def _check_bounded(problem: StaticsProblem):
     c[0::2] = -1.0
     Aub = sp.vstack([G, sp.csr_matrix(-c)]).tocsr()
     bub = np.concatenate([np.zeros(G.shape[0]), [1.0]])
-    res = _lp(c, Aub, bub, problem.A, np.zeros(problem.A.shape[0]), _bounds_list(lo, hi))
+    res = _lp(c, Aub, bub, problem.A, np.zeros(problem.A.shape[0]), _bounds_list(lo, hi),
+              attempts=_attempts(problem))
     if res.status != 0:
         raise NumericalError(f"recession-cone LP failed: {res.message}")
     if -res.fun > 1e-7:
         return False, np.inf, res.x / max(np.abs(res.x).max(), 1e-300)
-    r2 = _lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, _bounds_list(lo, hi))
+    r2 = _lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, _bounds_list(lo, hi),
+             attempts=_attempts(problem))
     if r2.status != 0:
         raise NumericalError(f"max sum fn LP failed: {r2.message}")
     return True, float(-r2.fun), None
@@ -278,7 +328,8 @@ def _implicit_equalities(problem: StaticsProblem, tol: float = TOL):
         Aub = sp.hstack([G, S]).tocsr()
         c = np.concatenate([np.zeros(m2), -np.ones(q)])
         res = _lp(c, Aub, np.zeros(p), sp.hstack([problem.A, sp.csr_matrix((problem.A.shape[0], q))]),
-                  problem.b, _bounds_list(lo, hi) + [(0.0, scale)] * q)
+                  problem.b, _bounds_list(lo, hi) + [(0.0, scale)] * q,
+                  attempts=_attempts(problem))
         if res.status != 0:
             raise NumericalError(f"implicit-equality LP failed: {res.message}")
         slack = -(G @ res.x[:m2])

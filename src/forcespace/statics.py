@@ -266,6 +266,25 @@ def _centre_y(p: Packing) -> float:
     return 0.5 * (p.y.min() + p.y.max())
 
 
+def _project_on_range(Au, bvec):
+    """Least-squares projection of bvec (3n,) onto range(Au), Au (3n, k) sparse.
+
+    Dense least squares (numpy's lstsq, cutoff eps max(shape) s_max) below
+    polytope.SWEEP_MIN_COLUMNS columns; above, the frontier sweep of
+    :mod:`forcespace.nullspace` (sparse, ~linear cost) with the same cutoff,
+    falling back to the dense solve when a rank decision was close.
+    """
+    from . import polytope
+
+    if Au.shape[1] >= polytope.SWEEP_MIN_COLUMNS:
+        res = polytope._sweep(Au, bvec, tol_rel=np.finfo(float).eps, basis=False)
+        if res is not None:
+            return Au @ res.step
+    Ad = Au.toarray()
+    sol = np.linalg.lstsq(Ad, bvec, rcond=None)[0]
+    return Ad @ sol
+
+
 def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
                   gap_tol: float = np.inf, source: str = "", support_mask=None,
                   rattlers=None, mu: float | None = None) -> StaticsProblem:
@@ -357,9 +376,7 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     b_raw = bvec.copy()
     unknown_cols = np.flatnonzero(np.repeat(mu > 0.0, 2) | (np.arange(2 * m) % 2 == 0))
     if unknown_cols.size:
-        Ad = A[:, unknown_cols].toarray()
-        sol = np.linalg.lstsq(Ad, bvec, rcond=None)[0]
-        bvec = Ad @ sol
+        bvec = _project_on_range(A[:, unknown_cols], bvec)
     else:
         bvec = np.zeros_like(bvec)
     inconsistency = float(np.abs(b_raw - bvec).max(initial=0.0))
