@@ -140,7 +140,7 @@ def static_convergence(scene, packing: Packing, seed=1):
     return history
 
 
-def scaling(p: Packing, tiles=(1, 5, 10), sample_tiles=(1, 3, 6), height=28.0,
+def scaling(p: Packing, tiles=(1, 5, 10, 25), sample_tiles=(1, 3, 6), height=28.0,
             n_samples=100, seed=1):
     """Cost growth of the exact analysis and of hit-and-run with system size.
 
@@ -246,6 +246,78 @@ def jam_fast_vs_paper(n_disks=(200, 500), mu=0.1, seeds=(1, 2)) -> list:
     return rows
 
 
+def analysis_scaling(p: Packing, tiles=(1, 5, 10, 25), old_max_tiles=10, height=28.0):
+    """Dense (old) against sparse (new) exact analysis, side by side per size.
+
+    Per k (the packing tiled k times, its slice of ``height``): the work of
+    ``forcespace analyze --slice`` split into building the problem (the load
+    projection onto range(A)), ``analyze`` without ranges and ``domains``, CPU
+    and wall seconds, first by the dense path (polytope/measures
+    SWEEP_MIN_COLUMNS set above every size: dense SVDs, QR circuits, simplex
+    LPs) for k <= ``old_max_tiles``, then by the default path (frontier sweep,
+    LU circuits, interior-point LPs above SWEEP_MIN_COLUMNS columns), and
+    whether the two agree (dim S, varying contacts, domains). The growth
+    exponent is the slope of log CPU against log n over the largest two sizes.
+    """
+    import os
+
+    from forcespace import measures, polytope
+    from forcespace.statics import slice_problem
+
+    default = polytope.SWEEP_MIN_COLUMNS
+
+    def clock():
+        return time.process_time(), time.perf_counter()
+
+    def run(q, threshold):
+        polytope.SWEEP_MIN_COLUMNS = measures.SWEEP_MIN_COLUMNS = threshold
+        try:
+            c0, w0 = clock()
+            prob = slice_problem(q, height)
+            c1, w1 = clock()
+            an = polytope.analyze(prob, ranges=False, centre=True)
+            c2, w2 = clock()
+            doms = measures.domains(prob, an)
+            c3, w3 = clock()
+        finally:
+            polytope.SWEEP_MIN_COLUMNS = measures.SWEEP_MIN_COLUMNS = default
+        t = {"build_cpu_s": c1 - c0, "analyze_cpu_s": c2 - c1, "domains_cpu_s": c3 - c2,
+             "total_cpu_s": c3 - c0, "total_wall_s": w3 - w0}
+        return prob, an, doms, t
+
+    rows = []
+    for k in tiles:
+        q = tile(p, k) if k > 1 else p
+        row = {"n_disks": q.n_disks, "load_average": os.getloadavg()}
+        if k <= old_max_tiles:
+            _, a0, d0, row["dense"] = run(q, 10**9)
+        prob, an, doms, row["sparse"] = run(q, default)
+        row.update(n_contacts=prob.n_contacts, n_columns=prob.n_columns, dim_S=an.dim_S,
+                   n_varying=int(an.varying.sum()), n_domains=len(doms))
+        if "dense" in row:
+            row["agree"] = bool(a0.dim_S == an.dim_S and np.array_equal(a0.varying, an.varying)
+                                and sorted((tuple(g.contacts), g.dim) for g in d0)
+                                == sorted((tuple(g.contacts), g.dim) for g in doms))
+            row["speedup_cpu"] = row["dense"]["total_cpu_s"] / row["sparse"]["total_cpu_s"]
+        rows.append(row)
+        dense = (f"dense {row['dense']['total_cpu_s']:7.2f} s CPU, " if "dense" in row else "")
+        print(f"  n={q.n_disks:5d} m={prob.n_contacts:5d} dim S={an.dim_S:5d}: {dense}sparse "
+              f"{row['sparse']['total_cpu_s']:7.2f} s CPU ({row['sparse']['total_wall_s']:.1f} s "
+              f"wall; build {row['sparse']['build_cpu_s']:.2f}, analyze "
+              f"{row['sparse']['analyze_cpu_s']:.2f}, domains {row['sparse']['domains_cpu_s']:.2f})"
+              + (f", agree {row['agree']}" if "agree" in row else ""), flush=True)
+    out = {"analysis": rows}
+    for key in ("dense", "sparse"):
+        big = [r for r in rows if key in r][-2:]
+        if len(big) == 2:
+            out[f"{key}_growth_exponent"] = float(
+                np.log(big[1][key]["total_cpu_s"] / big[0][key]["total_cpu_s"])
+                / np.log(big[1]["n_disks"] / big[0]["n_disks"]))
+            print(f"  {key} cost growth: CPU ~ n^{out[key + '_growth_exponent']:.2f} between "
+                  f"n={big[0]['n_disks']} and n={big[1]['n_disks']}", flush=True)
+    return out
+
+
 def main():
     OUT.mkdir(parents=True, exist_ok=True)
     paper = load_scene("inputs/paper.toml")
@@ -301,6 +373,8 @@ def main():
 
     print("exact analysis and hit-and-run against system size ...", flush=True)
     results["scaling"] = scaling(packings[0.1])
+    print("exact analysis, dense against sparse path ...", flush=True)
+    results["analysis_dense_vs_sparse"] = analysis_scaling(packings[0.1])
 
     (OUT / "bench.json").write_text(json.dumps(results, indent=2))
     plot(results)
@@ -336,8 +410,14 @@ def plot(results):
 
 
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["scaling"]:      # only this section: bench.py scaling PACKING [k ...]
-        ks = tuple(int(a) for a in sys.argv[3:]) or (1, 5, 10)
+    if sys.argv[1:2] == ["analysis"]:    # bench.py analysis PACKING [k ...]: dense vs sparse
+        ks = tuple(int(a) for a in sys.argv[3:]) or (1, 5, 10, 25)
+        OUT.mkdir(parents=True, exist_ok=True)
+        table = analysis_scaling(Packing.load(sys.argv[2]), tiles=ks)
+        (OUT / "bench_analysis.json").write_text(json.dumps(table, indent=2))
+        print(f"wrote {OUT / 'bench_analysis.json'}")
+    elif sys.argv[1:2] == ["scaling"]:      # only this section: bench.py scaling PACKING [k ...]
+        ks = tuple(int(a) for a in sys.argv[3:]) or (1, 5, 10, 25)
         OUT.mkdir(parents=True, exist_ok=True)
         table = scaling(Packing.load(sys.argv[2]), tiles=ks,
                         sample_tiles=tuple(k for k in ks if k <= 6))
