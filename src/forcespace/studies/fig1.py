@@ -85,17 +85,26 @@ def packing_task(scene: str, n_disks: int, slice_height: float, samples: int, mu
         runs.append(("relax", RelaxWalk(n=samples, seed=seed)))
     else:
         row["eta_relax"] = 0.0
+    run_samplers(row, runs, prob, wd, max_seconds, tag)
+    return {"rows": [row]}
+
+
+def run_samplers(row: dict, runs, prob, wd, max_seconds, tag: str = "",
+                 min_samples: int = 1) -> None:
+    """Run each (name, sampler) of ``runs`` on ``prob`` into ``wd/NAME{tag}.h5`` and add
+    eta_NAME (None below ``min_samples`` samples), n_NAME, t_NAME_s and the sampler's
+    diagnostics (relax: projected stalls; hit-and-run: R-hat, thinning) to ``row``."""
     for name, sampler in runs:
         t0 = time.perf_counter()
         ens = sampler.run(prob, output=wd / f"{name}{tag}.h5", max_seconds=max_seconds)
-        row[f"eta_{name}"] = ens.eta
+        row[f"eta_{name}"] = ens.eta if ens.n_samples >= min_samples else None
         row[f"n_{name}"] = ens.n_samples
         row[f"t_{name}_s"] = time.perf_counter() - t0
         if name == "relax":
             row["relax_projected"] = sampler.summary.get("n_projected")
         else:
             row["rhat_hit_and_run"] = sampler.summary.get("rhat_projections_max")
-    return {"rows": [row]}
+            row["thin_hit_and_run"] = sampler.summary["params"]["thin"]
 
 
 ROW_KEYS = ["task", "mu", "mu_sample", "seed", "z", "n_rattlers", "dim_S",

@@ -95,6 +95,7 @@ def packing_task(scene: str, n_disks: int, mu: float, seed: int, samples: int, w
     from ..measures import domains as find_domains
     from ..polytope import analyze
     from ..study import shared_packing
+    from .fig1 import run_samplers
 
     wd = Path(workdir)
     width, height, n0, over = scaled_geometry(scene, n_disks)
@@ -144,17 +145,7 @@ def packing_task(scene: str, n_disks: int, mu: float, seed: int, samples: int, w
     else:                                   # S is one point: no ambiguity (mu > 0)
         row["eta_hit_and_run"] = 0.0
         row["eta_relax"] = 0.0 if relax else None
-    for name, sampler in runs:
-        t0 = time.perf_counter()
-        ens = sampler.run(prob, output=wd / f"{name}.h5", max_seconds=max_seconds)
-        row[f"eta_{name}"] = ens.eta if ens.n_samples >= MIN_SAMPLES else None
-        row[f"n_{name}"] = ens.n_samples
-        row[f"t_{name}_s"] = time.perf_counter() - t0
-        if name == "relax":
-            row["relax_projected"] = sampler.summary.get("n_projected")
-        else:
-            row["rhat_hit_and_run"] = sampler.summary.get("rhat_projections_max")
-            row["thin_hit_and_run"] = sampler.summary["params"]["thin"]
+    run_samplers(row, runs, prob, wd, max_seconds, min_samples=MIN_SAMPLES)
     return row
 
 
