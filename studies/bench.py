@@ -28,7 +28,7 @@ import numpy as np
 from forcespace import __version__
 from forcespace.contacts import N_WALL_SLOTS, SLOT_TOP, kernel_body_index
 from forcespace.draw import save_figure
-from forcespace.jamming import build_packing, make_bodies, static_solve
+from forcespace.jamming import build_packing, make_bodies, row_order, static_solve
 from forcespace.nlgs import add_contact_velocities, effective_masses, nlgs_solve
 from forcespace.packing import Packing
 from forcespace.scene import load_scene
@@ -80,7 +80,7 @@ def renumbered(p: Packing) -> Packing:
     increasing) and its contacts sorted by their lower disk index: the memory order the
     engine uses with ``solver.sweep_block`` > 0 (same geometry and forces)."""
     n = p.n_disks
-    perm = np.lexsort((p.x, np.floor((p.y - p.y.min()) / (2 * p.r.max()))))
+    perm = row_order(p.x, p.y, p.r)
     new = np.empty(n, np.int64)
     new[perm] = np.arange(n)
     a = np.where(p.a >= 0, new[np.maximum(p.a, 0)], p.a)

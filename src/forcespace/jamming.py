@@ -91,9 +91,15 @@ def loose_start(scene: Scene, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
                 f"could not place disk {i} without overlap at initial packing fraction "
                 f"{scene['box.initial_packing_fraction']}: lower box.initial_packing_fraction")
     if scene["solver.sweep_block"] > 0:   # number the disks row by row (local sweeps)
-        order = np.lexsort((x, np.floor(y / (2.0 * r.max()))))
+        order = row_order(x, y, r)
         x, y, r = x[order], y[order], r[order]
     return x, y, r, height
+
+
+def row_order(x, y, r) -> np.ndarray:
+    """Disk indices (n,) row by row: rows one largest diameter high (y = 0 at a row
+    boundary), x increasing within a row (the numbering of ``solver.sweep_block`` > 0)."""
+    return np.lexsort((x, np.floor(y / (2.0 * r.max()))))
 
 
 def force_unit(scene: Scene) -> float:

@@ -157,14 +157,13 @@ def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
             gp = gap[k]
             if gp < 0.0:
                 gp = overlap_correction * (gp + overlap_slop) if gp < -overlap_slop else 0.0
-            if un * dt + gp > 0.0:
+            r_gs = -(mn[k] / dt) * (gp / dt + un)   # unprojected single-contact solution
+            if relaxation != 1.0:
+                new_n = max(rn[k] + relaxation * (r_gs - rn[k]), 0.0)
+            elif un * dt + gp > 0.0:
                 new_n = 0.0
             else:
-                new_n = -(mn[k] / dt) * (gp / dt + un)
-            if relaxation != 1.0:
-                new_n = rn[k] + relaxation * (-(mn[k] / dt) * (gp / dt + un) - rn[k])
-                if new_n < 0.0:
-                    new_n = 0.0
+                new_n = r_gs
             n_norm += 1
             dn = new_n - rn[k]
             if dn != 0.0:

@@ -57,8 +57,8 @@ def config(quick: bool) -> dict:
     return QUICK if quick else FULL
 
 
-def scaled_geometry(scene: str, n: int) -> tuple[float, float, int, dict]:
-    """(box width, slice height, n0, scene overrides) of ``inputs/SCENE.toml`` scaled to
+def scaled_geometry(scene: str, n: int) -> tuple[float, int, dict]:
+    """(slice height, n0, scene overrides) of ``inputs/SCENE.toml`` scaled to
     n disks (:meth:`Scene.scaled_to`: box, slice, plate load and mass, dt, rest
     criterion; the overrides use the study's ``section__key`` spelling)."""
     from ..scene import load_scene
@@ -68,7 +68,7 @@ def scaled_geometry(scene: str, n: int) -> tuple[float, float, int, dict]:
     sc, _ = base.scaled_to(n)
     over = {k.replace(".", "__"): sc[k] for k in sc.values
             if k != "disks.n" and sc[k] != base[k]}
-    return float(sc["box.width"]), float(sc["analysis.slice_height"]), int(base["disks.n"]), over
+    return float(sc["analysis.slice_height"]), int(base["disks.n"]), over
 
 
 def tasks(quick: bool = False) -> list[Task]:
@@ -98,7 +98,7 @@ def packing_task(scene: str, n_disks: int, mu: float, seed: int, samples: int, w
     from .fig1 import run_samplers
 
     wd = Path(workdir)
-    width, height, n0, over = scaled_geometry(scene, n_disks)
+    height, n0, over = scaled_geometry(scene, n_disks)
     p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks,
                               REUSE if n_disks == n0 else (), overrides=over)
     rat = p.rattlers()
