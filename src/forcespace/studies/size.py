@@ -41,10 +41,10 @@ QUICK = dict(scene="quick", sizes=(40, 60), mus=(0.1,), seeds={40: 2, 60: 2}, sa
              max_seconds=60.0, relax_max_n=40, clusters_max_dim=400)
 # FULL runs the paper's protocol with the fast sweep (inputs/paper_fast.toml: same
 # physics, runs of contacts + over-relaxation) at every size, so that all sizes share
-# one engine; sizes double from 100 to 800 (what one session of the 2-core machine
-# afforded; a 2000-disk task costs ~20 min of jamming plus hit-and-run at dim S ~ 1000)
-FULL = dict(scene="paper_fast", sizes=(100, 200, 400, 800), mus=(0.01, 0.1, 1.0),
-            seeds={100: 3, 200: 3, 400: 3, 800: 2}, samples=100,
+# one engine; sizes from 100 to 2000 (a 2000-disk task costs ~20-30 min of jamming plus
+# hit-and-run at dim S ~ 500-1000, capped at max_seconds)
+FULL = dict(scene="paper_fast", sizes=(100, 200, 400, 800, 2000), mus=(0.01, 0.1, 1.0),
+            seeds={100: 3, 200: 3, 400: 3, 800: 2, 2000: 2}, samples=100,
             max_seconds=900.0, relax_max_n=200, clusters_max_dim=150)
 GROWS_MU = 0.1         # the hypothesis: eta grows at mu <= GROWS_MU ...
 INTENSIVE_MU = 1.0     # ... and is size-independent at mu = INTENSIVE_MU
@@ -72,12 +72,13 @@ def scaled_geometry(scene: str, n: int) -> tuple[float, int, dict]:
 
 
 def tasks(quick: bool = False) -> list[Task]:
-    """Largest systems first (the longest tasks start first on a pool)."""
+    """Largest systems first (the longest tasks start first on a pool), one packing
+    per mu before the next seed (an interrupted study has every mu at every size)."""
     cfg = config(quick)
     out = []
     for n in sorted(cfg["sizes"], reverse=True):
-        for mu in cfg["mus"]:
-            for seed in range(1, cfg["seeds"][n] + 1):
+        for seed in range(1, cfg["seeds"][n] + 1):
+            for mu in cfg["mus"]:
                 out.append(Task(f"n{n}_mu{mu:.3g}_s{seed}", "forcespace.studies.size:packing_task",
                                 dict(scene=cfg["scene"], n_disks=n, mu=mu, seed=seed,
                                      samples=cfg["samples"], max_seconds=cfg["max_seconds"],
