@@ -4,6 +4,8 @@ Each case either converges to its stated tolerance, checked against the exact LP
 answer (S is non-empty for the packing's own forces), or ends with one clear
 error. Measured numbers are in the issue note; the asserts are the contract.
 """
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -13,6 +15,8 @@ from forcespace.jamming import build_packing
 from forcespace.polytope import analyze
 from forcespace.scene import validate
 from forcespace.statics import full_problem, plate_problem
+
+DATA = Path(__file__).parent / "data"
 
 pytestmark = pytest.mark.hard
 
@@ -155,3 +159,25 @@ def test_periodic_box_narrower_than_the_minimum_image_limit_is_refused():
     with pytest.raises(InputError, match="minimum-image"):
         scene(**{"box.width": 5.0})                 # 2 r_max < width < 4 r_max + 2 margin
     jam_and_check(scene(**{"disks.n": 6, "box.width": 8.2}))   # the narrowest allowed
+
+
+def test_projection_on_a_slice_with_near_dependent_equilibrium_rows():
+    """A relax-walk stall on a 100-disk mu = 1 slice (paper_fast scaled, seed 2) whose 165
+    equilibrium rows on 152 columns have rank 151 up to one singular value at round-off
+    level: the full-space KKT check could not decide the rank and refused the projection
+    (the size study lost the packing). The null-space LDP point is verified in its own
+    coordinates: it is admissible, and no admissible network sampled from S (dim 2) nor
+    the Chebyshev centre is closer."""
+    import forcespace as fs
+    from forcespace.polytope import chebyshev_centre, distance_to_S
+
+    p = fs.Packing.load(DATA / "paper_fast_n100_mu1_seed2.h5")
+    prob = fs.slice_problem(p, 28.0 * np.sqrt(100 / 200))     # the scaled slice
+    x = np.load(DATA / "paper_fast_n100_mu1_seed2_stall.npy")
+    assert prob.violation(x) > 1e-2                      # the stalled state is outside S
+    r = distance_to_S(prob, x)
+    assert r.max_violation <= 1e-9 and r.kkt_residual <= 1e-9
+    assert distance_to_S(prob, r.nearest).absolute <= 1e-9 * prob.force_scale
+    others = fs.HitAndRun(n=100, seed=3).run(prob).samples
+    others = np.vstack([others, chebyshev_centre(prob)[0]])
+    assert np.linalg.norm(others - x, axis=1).min() >= r.absolute * (1 - 1e-9)

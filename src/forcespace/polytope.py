@@ -520,9 +520,11 @@ def _ldp_projection(problem: StaticsProblem, xhat):
     the Lawson-Hanson LDP algorithm: NNLS on [E^T; f^T] v ~ (0, ..., 0, 1),
     z = -r[:d] / r[d] with r the NNLS residual (a finite active-set method).
 
-    Returns (x (2m,), active (k,) int): the projection and the rows of
+    Returns (x (2m,), active (k,) int, kkt): the projection, the rows of
     ``problem.inequalities()`` with a positive NNLS multiplier (the active set
-    the polish starts from).
+    the polish starts from) and the KKT stationarity residual of the reduced
+    problem (:func:`_reduced_kkt`), which needs no rank decision on the
+    equalities.
     """
     from scipy.optimize import nnls
 
@@ -533,7 +535,7 @@ def _ldp_projection(problem: StaticsProblem, xhat):
     N = null_basis(Ed)
     d = N.shape[1]
     if d == 0:
-        return xa, np.zeros(0, dtype=np.int64)
+        return xa, np.zeros(0, dtype=np.int64), 0.0
     M = np.asarray(G @ N)
     u = -np.asarray(G @ xa)
     ystar = N.T @ (np.asarray(xhat, float) - xa)
@@ -548,7 +550,25 @@ def _ldp_projection(problem: StaticsProblem, xhat):
     if abs(r[-1]) < 1e-14:
         raise NumericalError("projection: the constraints look infeasible (LDP)")
     z = -r[:d] / r[-1] * scale
-    return xa + N @ (ystar + z), np.flatnonzero(v > 0)
+    return xa + N @ (ystar + z), np.flatnonzero(v > 0), _reduced_kkt(M, u, ystar + z, z, scale)
+
+
+def _reduced_kkt(M, u, y, z, scale) -> float:
+    """KKT stationarity residual of min ||y - y*|| s.t. M y <= u at y = y* + z: with
+    the rows tight to 1e-9 <Fn>, NNLS for lam >= 0 in z = -M_act^T lam; the residual
+    relative to max(|z|, <Fn>). inf if y is infeasible by more than 1e-9 <Fn>."""
+    from scipy.optimize import nnls
+
+    slack = M @ y - u
+    if slack.max(initial=0.0) > 1e-9 * scale:
+        return float("inf")
+    act = np.flatnonzero(slack > -1e-9 * scale)
+    if act.size == 0:
+        return float(np.linalg.norm(z)) / max(float(np.linalg.norm(z)), scale)
+    Mt = M[act].T
+    colscale = np.maximum(np.linalg.norm(Mt, axis=0), 1e-300)
+    _, res = nnls(Mt / colscale, -z, maxiter=50 * act.size)
+    return float(res) / max(float(np.linalg.norm(z)), scale)
 
 
 def _range_basis(C, tol_rel=1e-11):
@@ -644,13 +664,18 @@ def _distance_to_S(problem: StaticsProblem, x, analysis: PolytopeAnalysis | None
     """:func:`distance_to_S` on a problem at <Fn> = 1."""
     if analysis is not None and not analysis.feasible:
         raise InputError("distance_to_S", "S", "is empty (infeasible); no distance")
-    xq, active = _ldp_projection(problem, x)
+    xq, active, kkt_q = _ldp_projection(problem, x)
     method = "null-space LDP (Lawson-Hanson NNLS) + verified active-set polish"
     xn, kkt, ok = _polish(problem, x, xq, active=active)
     if not ok:       # retry from the rows tight at the LDP point
         xn2, kkt2, ok2 = _polish(problem, x, xq)
         if ok2 or kkt2 < kkt:
             xn, kkt, ok = xn2, kkt2, ok2
+    if not ok and kkt_q <= 1e-9 and problem.violation(xq) <= 1e-9:
+        # the full-space check failed on near-dependent equality rows (rank decision);
+        # the LDP point's own KKT conditions, in null-space coordinates, hold
+        xn, kkt, ok = xq, kkt_q, True
+        method = "null-space LDP (Lawson-Hanson NNLS), KKT verified in null-space coordinates"
     viol = problem.violation(xn)
     if not ok or viol > 1e-9:
         raise NumericalError(f"projection onto S could not be verified (kkt={kkt:.2e}, "
