@@ -42,6 +42,9 @@ except PackageNotFoundError:  # running from a source tree without install
     __version__ = "0.0.0+unknown"
 
 from .errors import ForcespaceError, InputError, NumericalError  # noqa: E402
+from .kernel_cache import use_versioned_cache  # noqa: E402
+
+use_versioned_cache()   # before any kernel module imports numba (see kernel_cache)
 
 # name -> module; imported on first use, so `import forcespace` (and the CLI) stays light
 _LAZY = {
