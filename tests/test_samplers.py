@@ -110,3 +110,30 @@ def test_unbounded_S_is_never_sampled(tmp_path, mod):
     with pytest.raises(InputError, match="unbounded"):
         mod.sample(prob, 5, tmp_path / "u.h5")
     assert not (tmp_path / "u.h5").exists()
+
+
+def test_rows_constant_on_the_affine_hull_are_dropped_from_the_frame(monkeypatch):
+    """A row orthogonal to S's affine hull with a slack of -1e-13 <Fn> (an implicit
+    equality the LP test missed, as on an 800-disk mu = 1 slice) must leave the
+    hit-and-run frame: kept, it stops the rounding."""
+    import scipy.sparse as sp
+
+    _, prob = grooves(THETAS, MU)
+    an = analyze(prob, ranges=False, centre=True)
+    G, owner, kind = prob.inequalities()
+    i, j = np.flatnonzero(np.abs(prob.b) > 0)[:2]
+    g = prob.b[j] * prob.A[i] - prob.b[i] * prob.A[j]     # g.x = 0 on the affine hull
+    g = g / sp.linalg.norm(g)
+    shift = 1e-13 * prob.force_scale / np.linalg.norm(an.affine_point)
+    row = sp.csr_matrix(g + shift * an.affine_point / np.linalg.norm(an.affine_point))
+    G2 = sp.vstack([G, row]).tocsr()
+    monkeypatch.setattr(prob, "_inequalities", (G2, np.append(owner, 0), np.append(kind, 0)))
+    xc, N, H0, s0, free, _ = har.frame(prob, an)
+    assert G.shape[0] not in free and np.abs(G2[-1] @ N).max() <= har.FLAT_ROW
+    y0, L, _ = har.rounding(H0, s0, prob.force_scale)
+    assert np.all(H0 @ (prob.force_scale * y0) <= s0)    # a strictly interior start
+    monkeypatch.setattr(har, "FLAT_ROW", -1.0)           # keep the row: rounding fails
+    xc, N, H0, s0, free, _ = har.frame(prob, an)
+    assert G.shape[0] in free and s0[-1] < 0
+    with pytest.raises(InputError, match="strictly inside"):
+        har.rounding(H0, s0, prob.force_scale)
