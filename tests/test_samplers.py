@@ -21,12 +21,16 @@ def _in_S(prob, X, tol):
         assert x[0::2].min() >= -tol * prob.force_scale
 
 
-def test_hit_and_run_is_uniform_on_a_rectangle(tmp_path):
+@pytest.mark.parametrize("max_rows", [har.MVE_MAX_ROWS, 0])
+def test_hit_and_run_is_uniform_on_a_rectangle(tmp_path, monkeypatch, max_rows):
     """Two independent grooves: S is a rectangle in (s1, s2) (dim 2). Marginals
-    must be uniform, and u1 + u2 triangular (joint uniformity)."""
+    must be uniform, and u1 + u2 triangular (joint uniformity); with either
+    rounding (max_rows 0: the Lewis-weight one of big slices)."""
+    monkeypatch.setattr(har, "MVE_MAX_ROWS", max_rows)
     _, prob = grooves(THETAS, MU)
     out = tmp_path / "h.h5"
     res = har.sample(prob, 600, out, seed=11, thin=20)
+    assert res["params"]["rounding"] == ("john" if max_rows == 0 else "mve")
     X = ef.read(out).samples
     assert res["max_violation"] <= har.MAX_VIOLATION
     _in_S(prob, X, 1e-9)

@@ -15,6 +15,10 @@ Rounding (computed once before any sample, then FROZEN): the maximum-volume
 inscribed ellipsoid of S in its affine hull (rounding.py, Zhang-Gao interior
 point, iterated until the ellipsoid's axis ratio < 6) maps S to a polytope
 between the unit ball and the ball of radius d; w = 0 is the MVE centre.
+Above MVE_MAX_ROWS inequality rows the interior point's p x p factorisations
+cost more than the sampling, and the Lewis-weight approximation of the same
+ellipsoid (rounding.john_ellipsoid, d x d factorisations) replaces it; the
+method used is recorded in the parameters ("rounding").
 Covariance rounding from short walks was tried first and failed on the paper
 slices (dim 60-300, inner radius ~1e-3 <Fn>): the walks never equilibrated
 between rounds, so the covariance kept growing into thin spikes and the
@@ -278,22 +282,35 @@ def frame(problem: StaticsProblem, analysis=None):
     return xc, N, H0[~flat], s0[~flat], free[~flat], an
 
 
-def rounding(H0, s0, scale, max_rounds=4, progress=False):
-    """Frozen MVE rounding: (y0 (d,), L (d, d), info) with y = y0 + L w in units of <Fn>.
+MVE_MAX_ROWS = 1500   # more inequality rows: John (Lewis-weight) rounding, not the exact MVE
+
+
+def rounding_method(n_rows: int) -> str:
+    """The rounding for a polytope of ``n_rows`` inequalities: "mve" (exact, its p x p
+    factorisations cost O(p^3) per iteration) up to MVE_MAX_ROWS rows, "john" (the
+    Lewis-weight approximation, O(p d^2)) above: at p = 1200, d = 150 the two take
+    4 s and 2 s, and at the 2000-disk slices (p ~ 7400) the MVE took 1000-2700 s."""
+    return "mve" if n_rows <= MVE_MAX_ROWS else "john"
+
+
+def rounding(H0, s0, scale, max_rounds=4, progress=False, method=None):
+    """Frozen rounding: (y0 (d,), L (d, d), info) with y = y0 + L w in units of <Fn>.
 
     The frame coordinate is y = N^T (x - x_c) / scale; S is {H0 (scale y) <= s0}.
-    ``progress``: a bar of the interior-point iterations on stderr.
+    ``method``: "mve" or "john" (rounding.py); None picks by :func:`rounding_method`.
+    ``progress``: a bar of the iterations on stderr.
     """
     from .rounding import mve_rounding
 
     d = H0.shape[1]
-    return mve_rounding(H0 * scale, s0, np.zeros(d), max_rounds=max_rounds, progress=progress)
+    return mve_rounding(H0 * scale, s0, np.zeros(d), max_rounds=max_rounds, progress=progress,
+                        method=method or rounding_method(H0.shape[0]))
 
 
-def default_params(problem_dim: int, **kw) -> dict:
+def default_params(problem_dim: int, n_rows: int = 0, **kw) -> dict:
     d = max(problem_dim, 1)
     p = {"seed": 0, "chains": 4, "thin": max(50, d * d), "burn_in": max(500, 10 * d * d),
-         "direction": "coordinate", "rounding": "mve"}
+         "direction": "coordinate", "rounding": rounding_method(n_rows)}
     p.update({k: v for k, v in kw.items() if v is not None})
     return p
 
@@ -329,13 +346,14 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
     t0 = time.perf_counter()
     xc, N, H0, s0, free, an = frame(problem, analysis)
     d = N.shape[1]
-    params = default_params(d, seed=seed, chains=chains, thin=thin, burn_in=burn_in,
-                            direction=direction)
+    params = default_params(d, H0.shape[0], seed=seed, chains=chains, thin=thin,
+                            burn_in=burn_in, direction=direction)
     ens = ef.existing(out, problem, "hit-and-run", params)
     if ens is None:
         scale = problem.force_scale
         if d:
-            y0, L, rinfo = rounding(H0, s0, scale, progress=progress)
+            y0, L, rinfo = rounding(H0, s0, scale, progress=progress,
+                                    method=params["rounding"])
             xc = xc + scale * (N @ y0)
             s0 = s0 - scale * (H0 @ y0)
             T = scale * (N @ L)
@@ -352,8 +370,10 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
         ef.create(out, problem, "hit-and-run", params, packing_file, scene_name, scene_text,
                   setup={"x_centre": xc, "T": T, "H": np.ascontiguousarray(H), "s0": s0,
                          "free_rows": free, "mve_axis_ratio": ratios},
-                  setup_describe={"x_centre": ("F0", "centre of the MVE of S (origin of w)"),
-                                  "T": ("F0", "x = x_centre + T w: affine frame x frozen MVE rounding"),
+                  setup_describe={"x_centre": ("F0", "centre of the rounding ellipsoid "
+                                               "of S (origin of w)"),
+                                  "T": ("F0", "x = x_centre + T w: affine frame x frozen "
+                                         "rounding (params: 'rounding')"),
                                   "H": ("1", "non-implicit inequalities H w <= s0"),
                                   "s0": ("F0", "slack of the inequalities at the centre"),
                                   "free_rows": ("1", "rows of problem.inequalities() kept"),
