@@ -141,3 +141,18 @@ def test_rows_constant_on_the_affine_hull_are_dropped_from_the_frame(monkeypatch
     assert G.shape[0] in free and s0[-1] < 0
     with pytest.raises(InputError, match="strictly inside"):
         har.rounding(H0, s0, prob.force_scale)
+
+
+def test_burn_in_in_chunks_is_the_same_walk(monkeypatch):
+    """The burn-in runs in chunks (for its progress bar): any chunk size that is a
+    multiple of 64 must leave every chain bit for bit where one call would."""
+    from forcespace.h5io import MemoryFile
+
+    _, prob = lattice_rows(4, 2, 0.5)
+    runs = []
+    for chunk in (64, 64 * 3, 10 ** 9):
+        monkeypatch.setattr(har, "BURN_IN_CHUNK", chunk)
+        out = MemoryFile("<chunks>")
+        har.sample(prob, 4, out, seed=5, burn_in=1000)
+        runs.append(ef.read(out).samples)
+    assert np.array_equal(runs[0], runs[2]) and np.array_equal(runs[1], runs[2])

@@ -307,6 +307,26 @@ def rounding(H0, s0, scale, max_rounds=4, progress=False, method=None):
                         method=method or rounding_method(H0.shape[0]))
 
 
+BURN_IN_CHUNK = 64 * 4096   # steps per har_steps call in the burn-in (a multiple of 64:
+                            # the exact slack refresh falls on the same steps as in one call)
+
+
+def run_burn_in(H, s0, W, states, steps, coordinate, progress=False):
+    """Advance every chain (rows of W, states) by ``steps`` hit-and-run steps in place,
+    in chunks of BURN_IN_CHUNK (same walk as one call), with a bar on stderr."""
+    from .progress import progress as progress_bar
+
+    with progress_bar(total=W.shape[0] * steps, desc=f"burn-in ({W.shape[0]} chains)",
+                      unit="step", disable=not progress) as bar:
+        for c in range(W.shape[0]):
+            done = 0
+            while done < steps:
+                k = min(BURN_IN_CHUNK, steps - done)
+                har_steps(H, s0, W[c], states[c], k, coordinate)
+                done += k
+                bar.update(k)
+
+
 def default_params(problem_dim: int, n_rows: int = 0, **kw) -> dict:
     d = max(problem_dim, 1)
     p = {"seed": 0, "chains": 4, "thin": max(50, d * d), "burn_in": max(500, 10 * d * d),
@@ -363,10 +383,9 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
         ratios = np.asarray(rinfo.get("axis_ratio", []), float)
         states = seed_states(params["seed"], params["chains"])
         W = np.zeros((params["chains"], d))
-        for c in range(params["chains"]):
-            if d:
-                har_steps(H, s0, W[c], states[c], params["burn_in"],
-                          params["direction"] == "coordinate")
+        if d:
+            run_burn_in(H, s0, W, states, params["burn_in"], params["direction"] == "coordinate",
+                    progress)
         ef.create(out, problem, "hit-and-run", params, packing_file, scene_name, scene_text,
                   setup={"x_centre": xc, "T": T, "H": np.ascontiguousarray(H), "s0": s0,
                          "free_rows": free, "mve_axis_ratio": ratios},
