@@ -147,11 +147,12 @@ def scaling(p: Packing, tiles=(1, 5, 10, 25), sample_tiles=(1, 3, 6), height=28.
     The packing tiled k times along periodic x (:func:`tile`) and its slice of
     ``height``. Per k: the work of ``forcespace analyze --slice`` (analyze
     without ranges, then the domains), CPU and wall seconds. Per k in
-    ``sample_tiles``: dim S, MVE rounding time, the time of 100 samples (one
-    chain, 100 thinning intervals of d^2 coordinate steps, after burn-in) and
-    the time per effective sample (sampling time of ``n_samples`` samples,
-    burn-in included, over the smallest ESS of |x - mean|^2 and three random
-    projections). CPU seconds are the robust numbers on a shared machine
+    ``sample_tiles``: one default hit-and-run run of ``n_samples`` samples
+    (4 chains, thinning d^2 coordinate steps): dim S, rounding method and time,
+    burn-in time, the time of 100 samples and the time per effective sample
+    (sampling time over the smallest ESS of |x - mean|^2 and three random
+    projections); wall seconds from the sampler, CPU/wall of the whole run beside
+    them. CPU seconds are the robust numbers on a shared machine
     (everything here is single threaded); the growth exponent is the slope of
     log CPU time against log n over the largest two sizes.
     """
@@ -179,35 +180,29 @@ def scaling(p: Packing, tiles=(1, 5, 10, 25), sample_tiles=(1, 3, 6), height=28.
               f"{c1 - c0:8.2f} s CPU ({w1 - w0:.1f} s wall)", flush=True)
         if k not in sample_tiles or not an.dim_S:
             continue
-        xc, N, H0, s0, free, _ = har.frame(prob, an)
-        d = N.shape[1]
         c0, w0 = clock()
-        y0, L, rinfo = har.rounding(H0, s0, prob.force_scale)
-        c1, w1 = clock()
-        H = np.asfortranarray(prob.force_scale * (H0 @ L))
-        s0r = s0 - prob.force_scale * (H0 @ y0)
-        state = har.seed_states(seed, 1)[0]
-        w = np.zeros(d)
-        har.har_steps(H, s0r, w, state, 10 * d * d, True)          # burn-in (and compile)
-        c2, w2 = clock()
-        har.har_steps(H, s0r, w, state, 100 * d * d, True)
-        c3, w3 = clock()
         res = har.sample(prob, n_samples, MemoryFile("<bench>"), seed=seed, analysis=an)
-        c4, _w4 = clock()
+        c1, w1 = clock()
+        d = res["dim_S"]
         ess = min(v for v in (res.get("ess_sqdev"), res.get("ess_projections_min"))
                   if v is not None)
-        srow = {"n_disks": q.n_disks, "dim_S": d, "rows": int(H.shape[0]),
-                "rounding_cpu_s": c1 - c0, "rounding_rounds": rinfo["rounds"],
-                "rounding_iterations": rinfo["iterations"],
-                "cpu_s_100_samples": c3 - c2, "rounding_over_100_samples": (c1 - c0) / (c3 - c2),
+        sampling_s = res["wall_time_s"] - res["frame_s"] - res["rounding_s"] - res["burn_in_s"]
+        per_100 = sampling_s * 100.0 / res["n_samples"]
+        srow = {"n_disks": q.n_disks, "dim_S": d, "rows": res["n_rows"],
+                "rounding_method": res["params"]["rounding"], "rounding_s": res["rounding_s"],
+                "burn_in_s": res["burn_in_s"], "sampling_s": sampling_s,
+                "thin": res["params"]["thin"], "s_100_samples": per_100,
+                "rounding_over_100_samples": res["rounding_s"] / per_100,
                 "ess": ess, "rhat_sqdev": res.get("rhat_sqdev"),
-                "cpu_s_per_effective_sample": (c4 - c3 - (c1 - c0)) / ess}
+                "s_per_effective_sample": sampling_s / ess,
+                "cpu_s": c1 - c0, "wall_s": w1 - w0}
         samp.append(srow)
-        print(f"  hit-and-run dim S={d:4d} ({H.shape[0]} rows): rounding {c1 - c0:.2f} s CPU "
-              f"({rinfo['rounds']} rounds, {sum(rinfo['iterations'])} iterations), 100 samples "
-              f"{c3 - c2:.2f} s, ratio {(c1 - c0) / (c3 - c2):.2f}; {n_samples} samples ESS "
-              f"{ess:.0f}, {srow['cpu_s_per_effective_sample']:.3f} s per effective sample",
-              flush=True)
+        print(f"  hit-and-run dim S={d:4d} ({res['n_rows']} rows): {srow['rounding_method']} "
+              f"rounding {res['rounding_s']:.2f} s, burn-in {res['burn_in_s']:.1f} s, 100 "
+              f"samples {per_100:.2f} s (rounding / 100 samples "
+              f"{srow['rounding_over_100_samples']:.2f}); {n_samples} samples ESS {ess:.0f}, "
+              f"{srow['s_per_effective_sample']:.3f} s per effective sample "
+              f"(wall; CPU/wall {(c1 - c0) / (w1 - w0):.2f})", flush=True)
     big = rows[-2:]
     expo = (np.log(big[1]["analyze_cpu_s"] / big[0]["analyze_cpu_s"])
             / np.log(big[1]["n_disks"] / big[0]["n_disks"])) if len(big) == 2 else None
@@ -416,11 +411,21 @@ if __name__ == "__main__":
         table = analysis_scaling(Packing.load(sys.argv[2]), tiles=ks)
         (OUT / "bench_analysis.json").write_text(json.dumps(table, indent=2))
         print(f"wrote {OUT / 'bench_analysis.json'}")
-    elif sys.argv[1:2] == ["scaling"]:      # only this section: bench.py scaling PACKING [k ...]
-        ks = tuple(int(a) for a in sys.argv[3:]) or (1, 5, 10, 25)
+    elif sys.argv[1:2] == ["scaling"]:
+        # only this section: bench.py scaling PACKING [k ...] [--height H] [--sample K,K]
+        import argparse
+        ap = argparse.ArgumentParser(prog="bench.py scaling")
+        ap.add_argument("packing")
+        ap.add_argument("tiles", nargs="*", type=int, default=[1, 5, 10, 25])
+        ap.add_argument("--height", type=float, default=28.0, help="slice height [R]")
+        ap.add_argument("--sample", default=None,
+                        help="comma-separated tile counts to sample (default: those <= 6)")
+        a = ap.parse_args(sys.argv[2:])
+        ks = tuple(a.tiles)
+        st = tuple(int(k) for k in a.sample.split(",")) if a.sample else \
+            tuple(k for k in ks if k <= 6)
         OUT.mkdir(parents=True, exist_ok=True)
-        table = scaling(Packing.load(sys.argv[2]), tiles=ks,
-                        sample_tiles=tuple(k for k in ks if k <= 6))
+        table = scaling(Packing.load(a.packing), tiles=ks, sample_tiles=st, height=a.height)
         (OUT / "bench_scaling.json").write_text(json.dumps(table, indent=2))
         print(f"wrote {OUT / 'bench_scaling.json'}")
     else:

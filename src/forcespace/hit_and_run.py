@@ -360,7 +360,9 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
            max_seconds: float | None = None) -> dict:
     """Write ``n`` uniform samples of S to ``out`` (resumes if ``out`` continues this run).
 
-    Returns a summary dict (n_samples, wall time, max violation, diagnostics).
+    Returns a summary dict (n_samples, dim_S, n_rows of the rounded polytope, wall
+    time and its set-up parts frame_s (analysis and frame), rounding_s, burn_in_s
+    (0 when resumed), max violation, diagnostics).
     """
     check_options(n, chains, thin, burn_in, direction, checkpoint_every)
     t0 = time.perf_counter()
@@ -369,23 +371,28 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
     params = default_params(d, H0.shape[0], seed=seed, chains=chains, thin=thin,
                             burn_in=burn_in, direction=direction)
     ens = ef.existing(out, problem, "hit-and-run", params)
+    times = {"frame_s": time.perf_counter() - t0, "rounding_s": 0.0, "burn_in_s": 0.0}
     if ens is None:
         scale = problem.force_scale
         if d:
+            t1 = time.perf_counter()
             y0, L, rinfo = rounding(H0, s0, scale, progress=progress,
                                     method=params["rounding"])
             xc = xc + scale * (N @ y0)
             s0 = s0 - scale * (H0 @ y0)
             T = scale * (N @ L)
             H = np.asfortranarray(scale * (H0 @ L))
+            times["rounding_s"] = time.perf_counter() - t1
         else:
             T, H, rinfo = np.zeros((N.shape[0], 0)), np.zeros((H0.shape[0], 0)), {}
         ratios = np.asarray(rinfo.get("axis_ratio", []), float)
         states = seed_states(params["seed"], params["chains"])
         W = np.zeros((params["chains"], d))
+        t1 = time.perf_counter()
         if d:
             run_burn_in(H, s0, W, states, params["burn_in"], params["direction"] == "coordinate",
-                    progress)
+                        progress)
+        times["burn_in_s"] = time.perf_counter() - t1
         ef.create(out, problem, "hit-and-run", params, packing_file, scene_name, scene_text,
                   setup={"x_centre": xc, "T": T, "H": np.ascontiguousarray(H), "s0": s0,
                          "free_rows": free, "mve_axis_ratio": ratios},
@@ -464,7 +471,8 @@ def sample(problem: StaticsProblem, n: int, out, packing_file: str = "", scene_n
             bar.close()
     ens = ef.read(out)
     diag = diagnostics(ens.samples, ens.chains, params["seed"])
-    return {"n_samples": ens.n_samples, "dim_S": d, "wall_time_s": time.perf_counter() - t0,
+    return {"n_samples": ens.n_samples, "dim_S": d, "n_rows": int(H.shape[0]),
+            "wall_time_s": time.perf_counter() - t0, **times,
             "frame_equality_floor": floor_max[0],
             "max_violation": float(ens.violations.max(initial=0.0)), "params": params,
             **diag}
