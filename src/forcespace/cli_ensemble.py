@@ -184,7 +184,8 @@ def register(subparsers) -> None:
     p.add_argument("--burn-in", type=int, default=None,
                    help="hit-and-run burn-in steps per chain (default max(500, 10 dim_S^2))")
     p.add_argument("--direction", choices=("hypersphere", "coordinate"), default=None,
-                   help="hit-and-run directions (default coordinate, in the MVE-rounded frame)")
+                   help="hit-and-run directions (default coordinate, in the rounded frame: "
+                        "MVE, or its Lewis-weight approximation above 1500 rows)")
     p.add_argument("--checkpoint-every", type=int, default=10, metavar="K",
                    help="write samples and checkpoint every K samples")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -41,8 +41,9 @@ Where our protocol differs from the paper's, and how that could move the numbers
 - **Sample counts.** 100 samples per packing and sampler, each sampler capped in
   wall time (the count reached is in the tables). The paper's sample count for
   Fig. 1 is not stated.
-- **Uniform reference.** Hit-and-run (exact chords, MVE rounding) samples S uniformly;
-  the paper had no uniform sampler and assumed its walk was close to one.
+- **Uniform reference.** Hit-and-run (exact chords, MVE rounding; above 1500 inequality
+  rows its Lewis-weight approximation) samples S uniformly; the paper had no uniform
+  sampler and assumed its walk was close to one.
 """
 
 
