@@ -145,7 +145,8 @@ def test_rows_constant_on_the_affine_hull_are_dropped_from_the_frame(monkeypatch
 
 def test_burn_in_in_chunks_is_the_same_walk(monkeypatch):
     """The burn-in runs in chunks (for its progress bar): any chunk size that is a
-    multiple of 64 must leave every chain bit for bit where one call would."""
+    multiple of the slack refresh interval (64 at this dim) must leave every chain
+    bit for bit where one call would."""
     from forcespace.h5io import MemoryFile
 
     _, prob = lattice_rows(4, 2, 0.5)

@@ -90,27 +90,39 @@ def _normal(s):
 
 
 @njit(cache=True)
+def slack_refresh(d):
+    """Steps between exact slack recomputations: 64 up to d = 64, else the power-of-two
+    multiple of 64 at or above d (so the O(p d) product costs O(p) per step; the
+    update's round-off grows like sqrt(steps) eps, negligible)."""
+    r = 64
+    while r < d and r < 64 * 4096:
+        r *= 2
+    return r
+
+
+@njit(cache=True)
 def har_steps(H, s0, w, state, n_steps, coordinate):
     """Run ``n_steps`` hit-and-run steps from w (d,) in place; returns #degenerate chords.
 
     H (p, d), s0 (p,): polytope {H w <= s0}. state (4,) uint64 xoshiro state,
     advanced in place. coordinate: directions along axes instead of isotropic.
-    Slack s = s0 - H w is recomputed exactly every 64 steps (no drift).
+    Slack s = s0 - H w is recomputed exactly every :func:`slack_refresh` (d) steps
+    (no drift; an O(p d) product amortised to O(p) per step).
     """
     p, d = H.shape
+    refresh = slack_refresh(d)
     slack = s0 - H @ w
     u = np.zeros(d)
     Hu = np.zeros(p)
     bad = 0
     for step in range(n_steps):
-        if step % 64 == 0 and step > 0:
+        if step % refresh == 0 and step > 0:
             slack = s0 - H @ w
         if coordinate:
             c = int(_uniform(state) * d)
             if c >= d:
                 c = d - 1
-            for j in range(p):
-                Hu[j] = H[j, c]
+            hu = H[:, c]                 # a column: contiguous with H in Fortran order
         else:
             nrm = 0.0
             for i in range(d):
@@ -124,18 +136,18 @@ def har_steps(H, s0, w, state, n_steps, coordinate):
                 for i in range(d):
                     acc += H[j, i] * u[i]
                 Hu[j] = acc
+            hu = Hu
         tmin = -np.inf
         tmax = np.inf
-        for j in range(p):
+        for j in range(p):               # chord: divide only where a bound tightens
             sj = slack[j] if slack[j] > 0.0 else 0.0
-            if Hu[j] > 1e-300:
-                t = sj / Hu[j]
-                if t < tmax:
-                    tmax = t
-            elif Hu[j] < -1e-300:
-                t = sj / Hu[j]
-                if t > tmin:
-                    tmin = t
+            h = hu[j]
+            if h > 1e-300:
+                if sj < tmax * h:
+                    tmax = sj / h
+            elif h < -1e-300:
+                if sj < tmin * h:
+                    tmin = sj / h
         r = _uniform(state)
         if not (np.isfinite(tmin) and np.isfinite(tmax)) or tmax < tmin:
             bad += 1
@@ -147,7 +159,7 @@ def har_steps(H, s0, w, state, n_steps, coordinate):
             for i in range(d):
                 w[i] += t * u[i]
         for j in range(p):
-            slack[j] -= t * Hu[j]
+            slack[j] -= t * hu[j]
     return bad
 
 
@@ -307,8 +319,9 @@ def rounding(H0, s0, scale, max_rounds=4, progress=False, method=None):
                         method=method or rounding_method(H0.shape[0]))
 
 
-BURN_IN_CHUNK = 64 * 4096   # steps per har_steps call in the burn-in (a multiple of 64:
-                            # the exact slack refresh falls on the same steps as in one call)
+BURN_IN_CHUNK = 64 * 4096   # steps per har_steps call in the burn-in (a multiple of every
+                            # slack_refresh: the exact refresh falls on the same steps as in
+                            # one call)
 
 
 def run_burn_in(H, s0, W, states, steps, coordinate, progress=False):
