@@ -145,7 +145,7 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7, minmu: float = 1e-8,
     return x + y0, E2, ok, it
 
 
-def john_ellipsoid(H, s, y0, maxiter: int = 600, tol: float = 0.05, callback=None,
+def john_ellipsoid(H, s, y0, maxiter: int = 300, tol: float = 0.05, callback=None,
                    warm: dict | None = None):
     """Approximate John (max-volume inscribed) ellipsoid of {H y <= s}, O(p d^2) per iteration.
 
@@ -274,8 +274,9 @@ def mve_rounding(H, s, y0, max_rounds: int = 4, ratio: float = 6.0, progress: bo
             c, E2, ok, its = solve(Hl, sl, np.zeros(d), callback=show)
             info["iterations"].append(int(its) + 1)
             info, shift, L, r = _next_round(info, shift, L, c, E2, ok)
-            if r < ratio:
-                break
+            if r < ratio or (method == "john" and not ok):
+                break      # round; or John's iteration used its budget: another round
+                           # would continue the same iteration (warm weights), not fix it
     return shift, L, info
 
 
