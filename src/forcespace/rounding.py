@@ -12,7 +12,7 @@ a rounded polytope in which hit-and-run mixes in O(d^2) coordinate steps.
 
 For p rows much larger than d (the slices of big packings: p ~ 3 Nc, d ~ 0.3 Nc)
 the interior point's p x p factorisations dominate everything (a 2000-disk slice,
-p ~ 7400, took 1000-2700 s), so :func:`john_rounding` replaces it there: the
+p ~ 4900-7400, took 1000-2700 s), so :func:`john_ellipsoid` replaces it there: the
 fixed point w_i <- w_i a_i^T (A^T W A)^{-1} a_i of Cohen, Cousins, Lee & Yang
 (2019, "A near-optimal algorithm for approximating the John ellipsoid"), whose
 fixed point is John's condition, interleaved with Newton steps towards the
@@ -20,7 +20,8 @@ w-weighted analytic centre (the centre the weights balance). Its ellipsoid is
 scaled to be inscribed exactly; it is the MVE for a simplex or a box, and close
 to it otherwise (tests compare the two).
 
-Plain linear algebra; the only output is an optional progress bar (stderr). Units: whatever the caller uses for y and s
+Plain linear algebra; the only output is an optional progress bar (stderr).
+Units: whatever the caller uses for y and s
 (hit_and_run passes y in units of <Fn>).
 """
 from __future__ import annotations
