@@ -186,7 +186,7 @@ def scaling(p: Packing, tiles=(1, 5, 10, 25), sample_tiles=(1, 3, 6), height=28.
         d = res["dim_S"]
         ess = min(v for v in (res.get("ess_sqdev"), res.get("ess_projections_min"))
                   if v is not None)
-        sampling_s = res["wall_time_s"] - res["frame_s"] - res["rounding_s"] - res["burn_in_s"]
+        sampling_s = res["sampling_s"]
         per_100 = sampling_s * 100.0 / res["n_samples"]
         srow = {"n_disks": q.n_disks, "dim_S": d, "rows": res["n_rows"],
                 "rounding_method": res["params"]["rounding"], "rounding_s": res["rounding_s"],

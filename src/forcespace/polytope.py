@@ -36,9 +36,10 @@ VARY_TOL = 1e-6   # a contact varies in S if its fn or ft can change by more tha
 # slices at mu >= 0.4): the default, dual simplex without presolve, interior point.
 LP_ATTEMPTS = (("highs", {}), ("highs-ds", {"presolve": False}), ("highs-ipm", {}))
 # Large problems (n_columns >= SWEEP_MIN_COLUMNS) solve the feasibility, boundedness,
-# implicit-equality and Chebyshev-centre LPs by interior point (with HiGHS' crossover to a basic solution)
-# first: the simplex iteration count grows with the size, IPM's does not (measured 2x
-# faster at 2000 disks, see studies/bench.py analysis). Then the chain above.
+# implicit-equality and Chebyshev-centre LPs by interior point (with HiGHS' crossover to
+# a basic solution) first: the simplex iteration count grows with the size, IPM's does
+# not (measured 2x faster at 2000 disks, see studies/bench.py analysis). Then the chain
+# above.
 LP_ATTEMPTS_LARGE = (("highs-ipm", {}),) + LP_ATTEMPTS
 
 

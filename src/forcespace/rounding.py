@@ -37,6 +37,15 @@ ROW_TOL = 1e-10   # rows of {A x <= 1} below this x the largest row norm are rou
 CENTRED = 1e-3    # Newton decrement at which john_ellipsoid counts its centre as found
 
 
+def _live_rows(A):
+    """Mask (p,) of the rows of the slack-scaled {A x <= 1} that can bind: rows that are
+    zero up to round-off (inequalities whose slack is constant on the hull: contacts
+    that do not vary in S) never bind, and with them an iteration stalls (their
+    residual never falls)."""
+    nrm = np.linalg.norm(A, axis=1)
+    return nrm > ROW_TOL * nrm.max(initial=0.0)
+
+
 def _spd_factor(M):
     """Cholesky factor of the SPD matrix M (LU fallback if round-off makes it indefinite)."""
     try:
@@ -74,11 +83,7 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7, minmu: float = 1e-8,
         raise InputError("mve", "y0", "must be strictly inside the polytope",
                          got=float(slack0.min()))
     A = A / slack0[:, None]          # now {A x <= 1}, x = y - y0
-    # rows that are zero up to round-off (inequalities whose slack is constant on
-    # the hull: contacts that do not vary in S) cannot bind; with them the
-    # interior point stalls (their residual 1 - z never falls)
-    nrm = np.linalg.norm(A, axis=1)
-    A = A[nrm > ROW_TOL * nrm.max(initial=0.0)]
+    A = A[_live_rows(A)]
     p = A.shape[0]
     tau0 = 0.75
     bnrm = np.sqrt(p)
@@ -177,8 +182,7 @@ def john_ellipsoid(H, s, y0, maxiter: int = 300, tol: float = 0.05, callback=Non
     if not np.all(r > 0):
         raise InputError("john_ellipsoid", "y0", "must be strictly inside the polytope",
                          got=float(r.min()))
-    nrm = np.linalg.norm(H / r[:, None], axis=1)
-    keep = nrm > ROW_TOL * nrm.max(initial=0.0)    # rows constant on the hull: never bind
+    keep = _live_rows(H / r[:, None])
     H, s, r = H[keep], s[keep], r[keep]
     p = H.shape[0]
     w = np.full(p, d / p)

@@ -146,8 +146,8 @@ def packing_task(scene: str, n_disks: int, mu: float, seed: int, samples: int, w
     runs = []
     if an.dim_S:
         d = an.dim_S
-        long = dict(thin=d * d // 4, burn_in=2 * d * d) if d > HAR_BIG_DIM else {}
-        runs.append(("hit_and_run", HitAndRun(n=samples, seed=seed, **long)))
+        shorter = dict(thin=d * d // 4, burn_in=2 * d * d) if d > HAR_BIG_DIM else {}
+        runs.append(("hit_and_run", HitAndRun(n=samples, seed=seed, **shorter)))
         if relax:
             runs.append(("relax", RelaxWalk(n=samples, seed=seed)))
     else:                                   # S is one point: no ambiguity (mu > 0)
