@@ -92,8 +92,8 @@ def static_curve(p, S, caps, seed=1) -> list:
     """Cold-start static solves on the packing's configuration, one per sweep cap
     (tolerance 1e-13, stop at the first cap the solve converges under). Rows: cap,
     sweeps, seconds [s], residual (relative equilibrium residual), distance [<Fn>]."""
-    from forcespace.jamming import make_bodies, static_solve
-    from forcespace.scene import parse_scene_text
+    from forcespace.engine.protocol import make_bodies, static_solve
+    from forcespace.model.scene import parse_scene_text
     scene = parse_scene_text(p.scene_text)
 
     def solve(cap):
@@ -200,8 +200,8 @@ def packing_cost(st: dict) -> dict:
 
 def _load(name):
     """(packing, its plate S) of studies/packings/NAME.h5."""
-    from forcespace.packing import Packing
-    from forcespace.statics import plate_problem
+    from forcespace.model.packing import Packing
+    from forcespace.model.problem import plate_problem
     p = Packing.load(HERE / "packings" / f"{name}.h5")
     return p, plate_problem(p)
 
@@ -283,7 +283,7 @@ def contact_iteration_rates(p, mu, iterations=100, repeats=5, work=6e5) -> dict:
 
 
 def per_iteration_study(cfg) -> list:
-    from forcespace.packing import Packing
+    from forcespace.model.packing import Packing
     p = Packing.load(HERE / "packings" / "paper_mu0.1.h5")
     return [contact_iteration_rates(tile(p, k) if k > 1 else p, mu, repeats=cfg["repeats"])
             for k in cfg["tiles"] for mu in (0.0, 0.1)]
@@ -370,7 +370,7 @@ def plot(res: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from forcespace.draw import save_figure
+    from forcespace.plot import save_figure
     names = list(res["packings"])
     fig, axes = plt.subplots(1, len(names), figsize=(6.2 * len(names), 4.8), squeeze=False)
     for ax, name in zip(axes[0], names):

@@ -26,12 +26,12 @@ from pathlib import Path
 import numpy as np
 
 from forcespace import __version__
-from forcespace.contacts import N_WALL_SLOTS, SLOT_TOP, kernel_body_index
-from forcespace.draw import save_figure
-from forcespace.jamming import build_packing, make_bodies, row_order, static_solve
-from forcespace.nlgs import add_contact_velocities, effective_masses, nlgs_solve
-from forcespace.packing import Packing
-from forcespace.scene import load_scene
+from forcespace.model.walls import N_WALL_SLOTS, SLOT_TOP, kernel_body_index
+from forcespace.plot import save_figure
+from forcespace.engine.protocol import build_packing, make_bodies, row_order, static_solve
+from forcespace.engine.nlgs import add_contact_velocities, effective_masses, nlgs_solve
+from forcespace.model.packing import Packing
+from forcespace.model.scene import load_scene
 
 OUT = Path(__file__).parent / "out"
 
@@ -157,10 +157,10 @@ def scaling(p: Packing, tiles=(1, 5, 10, 25), sample_tiles=(1, 3, 6), height=28.
     log CPU time against log n over the largest two sizes.
     """
     from forcespace import hit_and_run as har
-    from forcespace.h5io import MemoryFile
-    from forcespace.measures import domains
-    from forcespace.polytope import analyze
-    from forcespace.statics import slice_problem
+    from forcespace.io.h5 import MemoryFile
+    from forcespace.space.structure import domains
+    from forcespace.space.force_space import ForceSpace
+    from forcespace.model.problem import slice_problem
 
     def clock():
         return time.process_time(), time.perf_counter()
@@ -170,15 +170,15 @@ def scaling(p: Packing, tiles=(1, 5, 10, 25), sample_tiles=(1, 3, 6), height=28.
         q = tile(p, k) if k > 1 else p
         prob = slice_problem(q, height)
         c0, w0 = clock()
-        an = analyze(prob, ranges=False, centre=True)
+        an = ForceSpace(ranges=False).compute(prob)
         domains(prob, an)
         c1, w1 = clock()
-        row = {"n_disks": q.n_disks, "n_contacts": prob.n_contacts, "dim_S": an.dim_S,
+        row = {"n_disks": q.n_disks, "n_contacts": prob.n_contacts, "dim_S": an.dim,
                "analyze_cpu_s": c1 - c0, "analyze_wall_s": w1 - w0}
         rows.append(row)
-        print(f"  analyze n={q.n_disks:5d} m={prob.n_contacts:5d} dim S={an.dim_S:4d}: "
+        print(f"  analyze n={q.n_disks:5d} m={prob.n_contacts:5d} dim S={an.dim:4d}: "
               f"{c1 - c0:8.2f} s CPU ({w1 - w0:.1f} s wall)", flush=True)
-        if k not in sample_tiles or not an.dim_S:
+        if k not in sample_tiles or not an.dim:
             continue
         c0, w0 = clock()
         res = har.sample(prob, n_samples, MemoryFile("<bench>"), seed=seed, analysis=an)
@@ -257,7 +257,7 @@ def analysis_scaling(p: Packing, tiles=(1, 5, 10, 25), old_max_tiles=10, height=
     import os
 
     from forcespace import measures, polytope
-    from forcespace.statics import slice_problem
+    from forcespace.model.problem import slice_problem
 
     default = polytope.SWEEP_MIN_COLUMNS
 
@@ -270,7 +270,7 @@ def analysis_scaling(p: Packing, tiles=(1, 5, 10, 25), old_max_tiles=10, height=
             c0, w0 = clock()
             prob = slice_problem(q, height)
             c1, w1 = clock()
-            an = polytope.analyze(prob, ranges=False, centre=True)
+            an = ForceSpace(ranges=False).compute(prob)
             c2, w2 = clock()
             doms = measures.domains(prob, an)
             c3, w3 = clock()
@@ -287,16 +287,16 @@ def analysis_scaling(p: Packing, tiles=(1, 5, 10, 25), old_max_tiles=10, height=
         if k <= old_max_tiles:
             _, a0, d0, row["dense"] = run(q, 10**9)
         prob, an, doms, row["sparse"] = run(q, default)
-        row.update(n_contacts=prob.n_contacts, n_columns=prob.n_columns, dim_S=an.dim_S,
+        row.update(n_contacts=prob.n_contacts, n_columns=prob.n_columns, dim_S=an.dim,
                    n_varying=int(an.varying.sum()), n_domains=len(doms))
         if "dense" in row:
-            row["agree"] = bool(a0.dim_S == an.dim_S and np.array_equal(a0.varying, an.varying)
+            row["agree"] = bool(a0.dim == an.dim and np.array_equal(a0.varying, an.varying)
                                 and sorted((tuple(g.contacts), g.dim) for g in d0)
                                 == sorted((tuple(g.contacts), g.dim) for g in doms))
             row["speedup_cpu"] = row["dense"]["total_cpu_s"] / row["sparse"]["total_cpu_s"]
         rows.append(row)
         dense = (f"dense {row['dense']['total_cpu_s']:7.2f} s CPU, " if "dense" in row else "")
-        print(f"  n={q.n_disks:5d} m={prob.n_contacts:5d} dim S={an.dim_S:5d}: {dense}sparse "
+        print(f"  n={q.n_disks:5d} m={prob.n_contacts:5d} dim S={an.dim:5d}: {dense}sparse "
               f"{row['sparse']['total_cpu_s']:7.2f} s CPU ({row['sparse']['total_wall_s']:.1f} s "
               f"wall; build {row['sparse']['build_cpu_s']:.2f}, analyze "
               f"{row['sparse']['analyze_cpu_s']:.2f}, domains {row['sparse']['domains_cpu_s']:.2f})"

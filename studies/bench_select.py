@@ -74,10 +74,10 @@ def main(argv=None):
     ap.add_argument("--slice", type=float, default=28.0)
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args(argv)
-    from forcespace.packing_file import read_packing
-    from forcespace.polytope import _unit
-    from forcespace.selection import select
-    from forcespace.statics import slice_problem
+    from forcespace.io.packing_file import read_packing
+    from forcespace.space.UNKNOWN import _unit
+    from forcespace.space.selection import select
+    from forcespace.model.problem import slice_problem
 
     rows = []
     for path in args.packings:

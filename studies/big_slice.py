@@ -20,9 +20,9 @@ from pathlib import Path
 
 from forcespace import Packing, slice_problem
 from forcespace import hit_and_run as har
-from forcespace.measures import domains
-from forcespace.h5io import atomic_path
-from forcespace.polytope import analyze
+from forcespace.space.structure import domains
+from forcespace.io.h5 import atomic_path
+from forcespace.space.force_space import ForceSpace
 
 
 def atomic_write_text(path, text: str) -> None:
@@ -45,7 +45,7 @@ def main():
     prof = cProfile.Profile()
     prof.enable()
     t, c = time.perf_counter(), time.process_time()
-    an = analyze(prob, ranges=False, centre=True)
+    an = ForceSpace(ranges=False).compute(prob)
     res["analyze_wall_s"], res["analyze_cpu_s"] = time.perf_counter() - t, time.process_time() - c
     t, c = time.perf_counter(), time.process_time()
     doms = domains(prob, an)
@@ -55,9 +55,9 @@ def main():
     pstats.Stats(prof, stream=text).strip_dirs().sort_stats("cumulative").print_stats(35)
     atomic_write_text(out / "analyze_profile.txt", text.getvalue())
     res.update(n_disks=p.n_disks, slice_disks=prob.n_interior, contacts=prob.n_contacts,
-               dim_S=an.dim_S, bounded=an.bounded, n_domains=len(doms))
+               dim_S=an.dim, bounded=an.bounded, n_domains=len(doms))
     print(json.dumps(res), flush=True)
-    d = an.dim_S
+    d = an.dim
     t, c = time.perf_counter(), time.process_time()
     summ = har.sample(prob, a.samples, out / "hit_and_run.h5", seed=1, thin=max(1, d * d // 20),
                       burn_in=d * d, progress=True, analysis=an, checkpoint_every=5)

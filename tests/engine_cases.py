@@ -1,9 +1,9 @@
 """Small hand-built systems for the engine tests, driven through the numba kernels."""
 import numpy as np
 
-from forcespace.contacts import N_WALL_SLOTS
-from forcespace.dynamics import ContactState, StepParams, run_steps
-from forcespace.jamming import Bodies
+from forcespace.model.walls import N_WALL_SLOTS
+from forcespace.engine.step import ContactState, StepParams, run_steps
+from forcespace.engine.protocol import Bodies
 
 
 def free_bodies(x, y, r, vx=None, vy=None, fixed=(), density=1.0, rotation=True,

@@ -9,8 +9,8 @@ bounded iff mu < cot th (otherwise the disk wedges: s -> -inf, N -> inf).
 """
 import numpy as np
 
-from forcespace.packing import Packing
-from forcespace.statics import build_problem
+from forcespace.model.packing import Packing
+from forcespace.model.problem import build_problem
 
 
 def groove_interval(theta, mu, W=1.0):
@@ -78,7 +78,7 @@ def pyramid(rows, mu, plate_mu=0.5, W=1.0):
     (k = 0 at the floor) holds rows-k disks, neighbours touching. Weight W per
     disk. Returns (packing, problem) with the packing's forces set to the
     Chebyshev centre of S (an admissible 'jammed' state)."""
-    from forcespace.polytope import analyze
+    from forcespace.space.force_space import ForceSpace
 
     xs, ys = [], []
     for k in range(rows):
@@ -99,7 +99,7 @@ def pyramid(rows, mu, plate_mu=0.5, W=1.0):
     p = _packing(xs, ys, np.ones(n), a, b, np.ones(m), np.zeros(m), mu, gravity=W / np.pi,
                  plate_mu=plate_mu, y_bottom=0.0)
     prob = build_problem(p, np.ones(n, bool), (-1,), "test", rattlers=np.zeros(n, bool))
-    an = analyze(prob, ranges=False)
+    an = ForceSpace(ranges=False).compute(prob)
     fn, ft = prob.to_packing_forces(an.centre)
     p = p.with_forces(fn, ft)
     prob = build_problem(p, np.ones(n, bool), (-1,), "test", rattlers=np.zeros(n, bool))
@@ -127,7 +127,7 @@ def lattice_rows(k, rows, mu, W=1.0):
     at y = q sqrt(3). Weight W per disk. Kinematically rigid (unlike a pyramid
     on a floor, which can roll apart), bounded for mu < cot 30 deg.
     Returns (packing, problem) with the Chebyshev centre as the jammed state."""
-    from forcespace.polytope import analyze
+    from forcespace.space.force_space import ForceSpace
 
     xs = [2.0 * i for i in range(k + 1)]
     ys = [0.0] * (k + 1)
@@ -150,7 +150,7 @@ def lattice_rows(k, rows, mu, W=1.0):
     p = _packing(xs, ys, np.ones(n), a, b, np.ones(m), np.zeros(m), mu, gravity=W / np.pi)
     kw = dict(support_mask=sup, rattlers=np.zeros(n, bool))
     prob = build_problem(p, ~sup, (), "test", **kw)
-    an = analyze(prob, ranges=False)
+    an = ForceSpace(ranges=False).compute(prob)
     fn, ft = prob.to_packing_forces(an.centre)
     p = p.with_forces(fn, ft)
     return p, build_problem(p, ~sup, (), "test", **kw)

@@ -10,7 +10,7 @@ import pytest
 
 import forcespace as fs
 
-ROOT = Path(__file__).parents[1]
+from paths import ROOT  # noqa: E402
 
 
 def test_readme_example_runs_as_written(tmp_path):

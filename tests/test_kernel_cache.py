@@ -1,4 +1,5 @@
-"""The numba cache is keyed by the kernel sources (a stale callee once ran for a session)."""
+"""The numba cache of forcespace's kernels is stamped with all kernel sources (a stale
+callee once ran for a session), without touching the environment."""
 import os
 import shutil
 import subprocess
@@ -6,33 +7,35 @@ import sys
 from pathlib import Path
 
 import forcespace
-from forcespace.kernel_cache import kernel_source_hash
+from forcespace.kernels import kernel_source_hash
 
 PKG = Path(forcespace.__file__).parent
 
 
-def test_kernel_edits_change_the_cache_key_and_other_edits_do_not(tmp_path):
-    for f in PKG.glob("*.py"):
-        shutil.copy(f, tmp_path / f.name)
-    before = kernel_source_hash(tmp_path)
-    assert before == kernel_source_hash(PKG)
-    (tmp_path / "cli.py").write_text((tmp_path / "cli.py").read_text() + "\n# comment\n")
-    assert kernel_source_hash(tmp_path) == before           # no kernel in cli.py
-    nlgs = tmp_path / "nlgs.py"
-    nlgs.write_text(nlgs.read_text().replace("relaxation = 1.0", "relaxation = 1.0 ", 1))
-    assert kernel_source_hash(tmp_path) != before           # a callee of dynamics changed
+def test_kernel_edits_change_the_stamp_and_other_edits_do_not(tmp_path):
+    copy = tmp_path / "forcespace"
+    shutil.copytree(PKG, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    before = kernel_source_hash.__wrapped__(copy)
+    assert before == kernel_source_hash()
+    cli = copy / "cli" / "__init__.py"
+    cli.write_text(cli.read_text() + "\n# comment\n")
+    assert kernel_source_hash.__wrapped__(copy) == before      # no kernel in the CLI
+    nlgs = copy / "engine" / "nlgs.py"
+    nlgs.write_text(nlgs.read_text() + "\n# a comment in a kernel module\n")
+    assert kernel_source_hash.__wrapped__(copy) != before      # a callee of the step changed
 
 
-def test_import_points_numba_at_the_versioned_directory(tmp_path):
-    code = ("import forcespace, os, numba.core.config as c; "
-            "from forcespace.nlgs import nlgs_solve; "
-            "print(os.environ['NUMBA_CACHE_DIR']); print(c.CACHE_DIR)")
+def test_kernels_are_cached_under_the_source_stamp_and_the_environment_is_untouched(tmp_path):
+    code = ("import os, forcespace; "
+            "from forcespace.model.walls import contact_mu; "
+            "print(os.environ.get('NUMBA_CACHE_DIR')); contact_mu(True, 0.1, 0.2); "
+            "loc = contact_mu._cache._impl.locator; "
+            "from forcespace.kernels import kernel_source_hash as h; "
+            "print(type(loc).__name__, loc.get_source_stamp() == h(), "
+            "loc.get_cache_path().startswith(os.environ['NUMBA_CACHE_DIR']))")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                          text=True, check=True).stdout.split()
-    want = str(tmp_path / kernel_source_hash())
-    assert out == [want, want]
-    env["NUMBA_CACHE_DIR"] = want                            # a worker process: unchanged
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                         text=True, check=True).stdout.split()
-    assert out == [want, want]
+    assert out[0] == str(tmp_path)                  # importing forcespace changed nothing
+    assert out[1].startswith("Forcespace") and out[2:] == ["True", "True"]
+    assert any(tmp_path.rglob("*.nbi"))             # the cache was written where numba puts it

@@ -7,7 +7,7 @@ import pytest
 from ensemble_cases import grooves, pyramid
 from forcespace import measures
 from forcespace.errors import InputError
-from forcespace.polytope import analyze
+from forcespace.space.force_space import ForceSpace
 
 
 def test_eta_by_hand():
@@ -25,7 +25,7 @@ def test_eta_by_hand():
 
 def test_grooves_are_two_elementary_clusters():
     p, prob = grooves([0.4, 0.6, 0.5], 0.2)
-    an = analyze(prob, ranges=False)
+    an = ForceSpace(ranges=False).compute(prob)
     doms = measures.domains(prob, an)
     assert len(doms) == 3 and all(d.elementary and d.dim == 1 for d in doms)
     assert sorted(tuple(d.contacts) for d in doms) == [(0, 1), (2, 3), (4, 5)]
@@ -34,22 +34,22 @@ def test_grooves_are_two_elementary_clusters():
 
 def test_frictionless_grooves_have_no_domains():
     _, prob = grooves([0.4, 0.6], 0.0)
-    an = analyze(prob, ranges=False)
-    assert an.dim_S == 0 and measures.domains(prob, an) == []
+    an = ForceSpace(ranges=False).compute(prob)
+    assert an.dim == 0 and measures.domains(prob, an) == []
     assert measures.varying_contacts(an).size == 0
 
 
 def test_pyramid_is_one_domain_with_dim_S():
     _, prob = pyramid(4, 0.5)
-    an = analyze(prob, ranges=False)
+    an = ForceSpace(ranges=False).compute(prob)
     doms = measures.domains(prob, an)
-    assert sum(d.dim for d in doms) == an.dim_S == 14
+    assert sum(d.dim for d in doms) == an.dim == 14
     assert len(doms) == 1 and not doms[0].elementary
 
 
 def test_difference_field_and_centre_distance():
     p, prob = grooves([0.4], 0.2)
-    an = analyze(prob)
+    an = ForceSpace(ranges=True).compute(prob)
     x1 = an.centre
     x2 = x1.copy()
     x2[1] += 0.01
@@ -63,7 +63,7 @@ def test_difference_field_and_centre_distance():
 
 def test_cli_analyze_sample_ensemble(tmp_path, capsys):
     from forcespace.cli import main
-    from forcespace.packing_file import write_packing
+    from forcespace.io.packing_file import write_packing
 
     p, prob = pyramid(3, 0.6)
     pack = tmp_path / "p.h5"

@@ -67,7 +67,7 @@ def _cmd_import(args):
 
 
 def _cmd_distance(args):
-    from forcespace.packing_file import read_packing
+    from forcespace.io.packing_file import read_packing
 
     from .distance import compare
     soft = read_packing(args.soft, kind="soft_network")

@@ -17,14 +17,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from forcespace.packing import Packing
+from forcespace.model.packing import Packing
 
 from .matching import MatchResult, match_contacts
 
 
 def make_problem(rigid: Packing, top: str = "plate"):
     """The statics problem (S) to measure distances in; see the module docstring."""
-    from forcespace.statics import full_problem, plate_problem
+    from forcespace.model.problem import full_problem, plate_problem
     return plate_problem(rigid) if top == "plate" else full_problem(rigid)
 
 
@@ -45,7 +45,7 @@ def compare(rigid: Packing, soft: Packing, problem=None,
     force_scale [F0], plus the soft run's parameters. The projection is
     ``forcespace.polytope.distance_to_S`` (exact, KKT-verified).
     """
-    from forcespace.polytope import distance_to_S
+    from forcespace.space.projection import distance_to_S
     prob, x, m = soft_vector(rigid, soft, problem)
     viol = prob.violation(x)
     d = distance_to_S(prob, x)

@@ -50,10 +50,11 @@ from pathlib import Path
 
 import numpy as np
 
-from forcespace.outputs import check_output_dir, mark_run_dir
+from forcespace.io.outputs import check_output_dir, mark_run_dir
 
 from forcespace.errors import ForcespaceError, InputError
-from forcespace.packing import BOTTOM, TOP, Packing
+from forcespace.model.walls import BOTTOM, TOP
+from forcespace.model.packing import Packing
 
 from .problem import SoftProblem, check_options
 

@@ -32,7 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from forcespace.errors import InputError
-from forcespace.packing import LEFT, RIGHT, TOP, Packing
+from forcespace.model.walls import LEFT, RIGHT, TOP
+from forcespace.model.packing import Packing
 
 
 def check_options(options, checks, source="options") -> None:

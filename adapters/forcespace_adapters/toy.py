@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from forcespace.packing import BOTTOM, TOP, Packing
+from forcespace.model.walls import BOTTOM, TOP
+from forcespace.model.packing import Packing
 
 
 def two_row_packing(n_cols: int = 5, spacing: float = 1.2, load: float = 1.0,

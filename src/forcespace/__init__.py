@@ -1,33 +1,31 @@
 """forcespace: force indeterminacy in jammed packings of rigid disks.
 
-Layers, in the order the data flows:
-scene -> dynamics (contacts, nlgs, stepping) -> jamming -> packing
--> statics (slice, equilibrium matrix) -> ensemble (exact analysis, samplers)
--> measures -> studies.
+The data flows one way, one sub-package per stage::
+
+    scene (model.scene) -> engine (contact dynamics) -> packing (model.packing)
+    -> statics problem (model.problem) -> S (space: exact analysis)
+    -> samples of S (sampling) -> measures -> figures (plot), files (io)
 
 The public API (``import forcespace as fs``)::
 
-    load_scene(path)                  a validated scene (forcespace.scene.Scene)
+    scenes()                          the bundled scenes {name: description}
+    load_scene(name_or_path)          a validated Scene (every key in model.scene.SCHEMA)
     jam(scene, **overrides)           jam a packing by the scene's protocol -> Packing
-    Packing                           a static packing: .load(path), .save(path),
-                                      .from_arrays(x, y, r, a, b, ...), .plot(ax)
+    Packing                           a static packing and its force network
+    read_packing(path), write_packing(packing, path)
     slice_problem(packing, height)    the paper's slice: S of its interior contacts
     full_problem(packing)             the whole packing (bottom plate a support)
     plate_problem(packing)            the whole packing under a load-controlled plate
-    ForceSpace(problem).compute()     exact analysis of S: dim, bounded, centre,
-                                      radius, fn/ft ranges, domains, distance(x), plot
-    HitAndRun(n, seed).run(problem)   uniform samples of S -> Ensemble (in memory)
-    RelaxWalk(n, seed).run(problem)   the paper's perturb-and-relax walk -> Ensemble
-    Ensemble                          samples: .forces (k, m, 2), .eta, .plot(packing)
+    ForceSpace(...).compute(problem)  exact analysis of S: dim, bounded, centre, radius,
+                                      ranges, domains, distance(x), plot
+    HitAndRun(n, seed).compute(problem)   uniform samples of S (coordinate hit-and-run)
+    RelaxWalk(n, seed).compute(problem)   the paper's perturb-and-relax walk
+    Ensemble, read_ensemble(path)     samples of S: .forces (k, m, 2), .eta, diagnostics
     eta(samples)                      the paper's force ambiguity
     distance_from_centre(samples, x0) Fig. 3 distances
-    difference_field(packing, problem, x1, x2)   a drawable difference of two networks
-    plot_difference(packing, problem, x1, x2, domains, ax)   Fig. 2-style figure
     section(problem, x0, directions)  a 2-D cross-section of S (Fig. 3 inset) -> Section
-    select(problem, kt_ratio, kn)     the network elastic springs select in S (minimum
-                                      complementary energy) -> Selection (.x, .energy,
-                                      .sliding_contacts, .displacement); also Selection(...)
-    MemoryFile()                      an in-memory file for any output path
+    Selection(kt_ratio, kn).compute(problem)   the network elastic springs select in S
+    plot_packing, plot_difference     figures on the caller's Axes
     InputError, NumericalError        what the library raises (CLI exit 2 and 3)
 
 Units: lengths in R, forces in F0, force vectors in problem column order
@@ -42,25 +40,23 @@ except PackageNotFoundError:  # running from a source tree without install
     __version__ = "0.0.0+unknown"
 
 from .errors import ForcespaceError, InputError, NumericalError  # noqa: E402
-from .kernel_cache import use_versioned_cache  # noqa: E402
-
-use_versioned_cache()   # before any kernel module imports numba (see kernel_cache)
 
 # name -> module; imported on first use, so `import forcespace` (and the CLI) stays light
 _LAZY = {
-    "load_scene": "scene", "Scene": "scene",
-    "jam": "jamming",
-    "Packing": "packing",
-    "slice_problem": "statics", "full_problem": "statics", "plate_problem": "statics",
-    "StaticsProblem": "statics",
-    "ForceSpace": "force_space",
-    "HitAndRun": "hit_and_run", "RelaxWalk": "relax_sampler",
-    "Ensemble": "ensemble_file",
+    "load_scene": "model.scene", "scenes": "model.scene", "Scene": "model.scene",
+    "Packing": "model.packing",
+    "slice_problem": "model.problem", "full_problem": "model.problem",
+    "plate_problem": "model.problem", "StaticsProblem": "model.problem",
+    "jam": "engine.protocol",
+    "ForceSpace": "space.force_space",
+    "section": "space.section", "Section": "space.section",
+    "select": "space.selection", "Selection": "space.selection",
+    "HitAndRun": "sampling.hit_and_run", "RelaxWalk": "sampling.relax_walk",
+    "Ensemble": "sampling.ensemble",
+    "read_packing": "io.packing_file", "write_packing": "io.packing_file",
+    "read_ensemble": "io.ensemble_file",
     "eta": "measures", "distance_from_centre": "measures", "difference_field": "measures",
-    "plot_difference": "draw", "plot_packing": "draw",
-    "MemoryFile": "h5io",
-    "section": "cross_section", "Section": "cross_section",
-    "select": "selection", "Selection": "selection",
+    "plot_difference": "plot", "plot_packing": "plot",
 }
 
 __all__ = ["__version__", "ForcespaceError", "InputError", "NumericalError", *_LAZY]

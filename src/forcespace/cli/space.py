@@ -1,0 +1,240 @@
+"""CLI commands of the force ensemble: ``analyze``, ``sample``, ``section``, ``ensemble``."""
+from __future__ import annotations
+
+import sys
+import time
+
+
+
+def load_problem(path, slice_height=None, full=False, gap_tol=float("inf"), mu=None):
+    """Read a packing file and build the problem the options ask for
+    (:func:`forcespace.statics.problem_for`)."""
+    from ..io.packing_file import read_packing
+    from ..model.problem import problem_for
+
+    packing = read_packing(path)
+    return packing, problem_for(packing, slice_height, full, gap_tol, mu, source=str(path))
+
+
+def _add_problem_args(p):
+    """--slice/--full (a mutually exclusive group, returned), --gap-tol, --mu."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--slice", type=float, metavar="H", default=None,
+                   help="slice of height H [R] in the middle (default: the scene's "
+                        "[analysis] slice_height, else --full)")
+    g.add_argument("--full", action="store_true",
+                   help="whole packing: bottom plate a support, top-plate forces fixed")
+    p.add_argument("--gap-tol", type=float, default=float("inf"), metavar="G",
+                   help="contacts with gap > G [R] are open and dropped (default: keep all)")
+    p.add_argument("--mu", type=float, default=None, metavar="MU",
+                   help="disk-disk friction of S instead of the packing's own (e.g. a "
+                        "frictionless packing with friction switched on); walls keep plate_mu")
+    return g
+
+
+def analysed(problem, ranges: bool = False):
+    """ForceSpace(ranges).compute(problem); NumericalError (exit 3) if an LP failed."""
+    from ..errors import NumericalError
+    from ..space.force_space import ForceSpace
+
+    S = ForceSpace(ranges=ranges, centre=True).compute(problem)
+    if not S.success:
+        raise NumericalError(S.message)
+    return S
+
+
+def cmd_analyze(args) -> int:
+    from ..cli import print_result
+
+    t0 = time.perf_counter()
+    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
+    S = analysed(problem, ranges=args.ranges)
+    out = {"packing": str(args.packing), "kind": problem.kind, "slice_height": problem.height,
+           "packing_mu": packing.mu, "mu_override": args.mu, **S.summary(),
+           "z": packing.coordination()}
+    out["n_rattlers_excluded"] = int(problem.rattlers.size)
+    out["load_inconsistency"] = problem.meta["load_inconsistency"]
+    out["jammed_violation"] = problem.violation(problem.x_jammed)
+    out["rattler_convention"] = ("a disk with no force-bearing contact (carries no load); "
+                                 "rattlers and all their contacts dropped")
+    if args.ranges and S.fn_range is not None:
+        out["fn_range"] = S.fn_range
+        out["ft_range"] = S.ft_range
+    if args.clusters and S.feasible and S.dim:
+        from ..space.structure import decompose
+        out["clusters"] = decompose(problem, S, packing).summary()
+    out["wall_time_s"] = time.perf_counter() - t0
+    print_result(out, args.json)
+    return 0
+
+
+def cmd_sample(args) -> int:
+    from ..cli import print_json
+    from ..errors import NumericalError
+    from ..io.outputs import check_output_file
+
+    check_output_file(args.output, inputs=[args.packing])
+    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
+    common = dict(seed=args.seed, progress=not args.quiet,
+                  checkpoint_every=args.checkpoint_every)
+    if args.sampler == "relax":
+        from ..sampling.relax_walk import RelaxWalk
+        sampler = RelaxWalk(args.n, tol=args.tol, **common)
+    else:
+        from ..sampling.hit_and_run import HitAndRun
+        sampler = HitAndRun(args.n, chains=args.chains, thin=args.thin, burn_in=args.burn_in,
+                            direction=args.direction, **common)
+    res = sampler.compute(problem, output=args.output).summary()
+    res["output"] = str(args.output)
+    if res.get("n_projected"):
+        print(f"forcespace sample: warning: {res['n_projected']} of {res['n_samples']} relax "
+              f"samples stalled in Gauss-Seidel (non-static fixed point) and were finished by "
+              f"the exact projection onto S", file=sys.stderr)
+    if args.json:
+        print_json(res)
+    else:
+        print(f"{res['n_samples']} samples in {args.output} "
+              f"(max violation {res['max_violation']:.2e} x <Fn>, "
+              f"{res['wall_time_s']:.1f} s this run)", file=sys.stderr)
+    if not sampler.success:
+        raise NumericalError(sampler.message)
+    return 0
+
+
+def cmd_ensemble(args) -> int:
+    from ..cli import print_result
+
+    from ..io.ensemble_file import read_ensemble
+    out = read_ensemble(args.ensemble).summary()
+    print_result(out, args.json)
+    return 0
+
+
+def cmd_section(args) -> int:
+    from ..cli import print_result
+    from ..plot import figure_targets
+    from ..io.outputs import check_output_file
+    from ..space.section import Section
+
+    for target in figure_targets(args.output):
+        check_output_file(target, inputs=[args.packing])
+    _, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
+    sec = Section(n=args.n, seed=args.seed).compute(problem)
+    ax = sec.plot(title=f"S through the jammed network ({problem.kind}, seed {args.seed})")
+    ax.figure.tight_layout()
+    from ..plot import save_figure
+    save_figure(ax.figure, args.output)
+    print_result({"figure": str(args.output), "inside_fraction": sec.inside_fraction,
+                  "s_range": list(sec.s_range), "t_range": list(sec.t_range),
+                  "jammed_state_violation": sec.x0_violation}, args.json)
+    return 0
+
+
+def cmd_select(args) -> int:
+    import math
+
+    from ..cli import print_result
+    from ..errors import InputError
+    from ..io.outputs import check_output_file, output_lock
+    from ..io.packing_file import read_packing, write_packing
+    from ..space.selection import Selection
+    from ..model.problem import plate_problem, problem_for
+
+    for name, v in (("--kt-ratio", args.kt_ratio), ("--kn", args.kn)):
+        if not (math.isfinite(v) and v > 0):
+            raise InputError("command line", name, "must be a finite number > 0", got=v)
+    check_output_file(args.output, inputs=[args.packing])
+    t0 = time.perf_counter()
+    packing = read_packing(args.packing)
+    if args.plate:
+        problem = plate_problem(packing, args.gap_tol, source=str(args.packing), mu=args.mu)
+    else:
+        problem = problem_for(packing, args.slice, args.full, args.gap_tol, args.mu,
+                              source=str(args.packing))
+    overlap = None
+    if args.initial_overlaps:
+        from ..space.selection import packing_overlaps
+        overlap = packing_overlaps(packing, problem)
+    sel = Selection(kt_ratio=args.kt_ratio, kn=args.kn, overlap=overlap).compute(problem)
+    soft = sel.to_packing(packing)
+    with output_lock(args.output):
+        write_packing(soft, args.output, kind="soft_network",
+                      extra_attrs={f"run_{k}": v for k, v in soft.meta.items()})
+    out = {"packing": str(args.packing), "output": str(args.output), **sel.summary(),
+           "jammed_violation": problem.violation(problem.x_jammed),
+           "wall_time_s": time.perf_counter() - t0}
+    print_result(out, args.json)
+    return 0
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("analyze", help="exact analysis of the force ensemble S (LPs)")
+    p.add_argument("packing", metavar="PACK.h5")
+    _add_problem_args(p)
+    p.add_argument("--clusters", action="store_true",
+                   help="decompose the indeterminacy into elementary clusters (sizes, density "
+                        "rho per interior disk, percolating domains)")
+    p.add_argument("--ranges", action="store_true",
+                   help="also compute per-contact min/max of fn and ft (4 LPs per contact)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_analyze)
+
+    p = subparsers.add_parser("sample", help="sample S (resumable: rerun to continue)")
+    p.add_argument("packing", metavar="PACK.h5")
+    _add_problem_args(p)
+    p.add_argument("--sampler", choices=("relax", "hit-and-run"), required=True)
+    p.add_argument("-n", type=int, required=True, help="total number of samples wanted")
+    p.add_argument("-o", "--output", required=True, metavar="ENS.h5")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--tol", type=float, default=1e-9,
+                   help="relax: max violation of S relative to <Fn> per sample (default 1e-9)")
+    p.add_argument("--chains", type=int, default=None, help="hit-and-run chains (default 4)")
+    p.add_argument("--thin", type=int, default=None,
+                   help="hit-and-run steps between samples (default max(50, dim_S^2))")
+    p.add_argument("--burn-in", type=int, default=None,
+                   help="hit-and-run burn-in steps per chain (default max(500, 10 dim_S^2))")
+    p.add_argument("--direction", choices=("hypersphere", "coordinate"), default=None,
+                   help="hit-and-run directions (default coordinate, in the rounded frame: "
+                        "MVE, or its Lewis-weight approximation above 1500 rows)")
+    p.add_argument("--checkpoint-every", type=int, default=10, metavar="K",
+                   help="write samples and checkpoint every K samples")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print a JSON summary")
+    p.set_defaults(func=cmd_sample)
+
+    p = subparsers.add_parser("section", help="a 2-D cross-section of S through the jammed "
+                              "network (white inside S, grey by Coulomb violation)")
+    p.add_argument("packing", metavar="PACK.h5")
+    _add_problem_args(p)
+    p.add_argument("-n", type=int, default=201, help="grid points per axis (default 201)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the two random directions")
+    p.add_argument("-o", "--output", required=True, help="figure (.png also writes .pdf)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_section)
+
+    p = subparsers.add_parser(
+        "select", help="the network linear springs select in S (minimum complementary "
+        "energy, a QP over S) -> soft-network file for `forcespace distance`")
+    p.add_argument("packing", metavar="PACK.h5")
+    g = _add_problem_args(p)
+    g.add_argument("--plate", action="store_true",
+                   help="whole packing under its load-controlled top plate (the S of the "
+                        "LIGGGHTS/pymunk runs and of `forcespace distance`)")
+    p.add_argument("--kt-ratio", type=float, default=2.0 / 7.0, metavar="R",
+                   help="tangential / normal contact stiffness kt/kn (default 2/7, as the "
+                        "LIGGGHTS adapter); the network depends on kn only through it")
+    p.add_argument("--kn", type=float, default=1.0, metavar="K",
+                   help="normal stiffness [F0/R] (default 1; without --initial-overlaps it "
+                        "scales the reported energy only)")
+    p.add_argument("--initial-overlaps", action="store_true",
+                   help="springs start at the packing's own contact overlaps/gaps (a soft "
+                        "code started from this packing); kn then matters in absolute terms")
+    p.add_argument("-o", "--output", required=True, metavar="SEL.h5",
+                   help="soft-network file to write")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_select)
+
+    p = subparsers.add_parser("ensemble", help="measures of a sampled ensemble (eta, ...)")
+    p.add_argument("ensemble", metavar="ENS.h5")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_ensemble)

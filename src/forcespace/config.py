@@ -1,0 +1,58 @@
+"""Every tolerance and threshold of forcespace, named once, with its unit and reason.
+
+Units: ``<Fn>`` is the mean jammed normal force of a statics problem
+(``StaticsProblem.force_scale``); forces are compared with it after the problem
+is scaled to <Fn> = 1 (HiGHS' tolerances are absolute). ``R`` is the smallest
+radius of the scene's range. ``1`` marks a pure number.
+
+Modules read these as ``config.NAME`` at call time, so a benchmark may change a
+threshold (e.g. force the sparse path on a small problem) for one run.
+"""
+
+# ---- contacts and packings -----------------------------------------------------------
+FORCE_BEARING = 1e-9        # [<Fn>] a contact with fn above this carries load; a disk with
+                            # no such contact is a rattler (excluded from z and from S)
+
+# ---- linear algebra of S (ranks, null spaces) ------------------------------------------
+RANK_TOL = 1e-10            # [1] singular value s counts when s > RANK_TOL * s_max * max(shape)
+                            # (numpy's matrix_rank rule with a cut-off above round-off of
+                            # assembled equilibrium rows, ~1e-14 relative)
+RANGE_RANK_TOL = 1e-11      # [1] the same rule for the row space of the projection's active
+                            # equalities (rows dependent up to round-off must not be amplified)
+SWEEP_MIN_COLUMNS = 1500    # [columns] from this size: sparse frontier sweep instead of a dense
+                            # SVD, interior-point LPs first, LU circuits (dense paths keep the
+                            # paper-sized slices, ~400 columns, bit for bit as before)
+SWEEP_MARGIN = 100.0        # [1] a sweep whose rank decision came within this factor of its
+                            # threshold is redone by the dense SVD
+SWEEP_CHUNK_ROWS = 96       # [rows] per sweep step (96 measured 2x faster than 48 at 5000 disks)
+SWEEP_LIVE_TOL = 1e-12      # [1] a null vector with frontier weight below this is final
+
+# ---- the exact analysis of S (LPs) -------------------------------------------------------
+IMPLICIT_TOL = 1e-9         # [<Fn>] an inequality whose slack never exceeds this on S is an
+                            # implicit equality (a contact forced to slide or to carry nothing)
+VARY_TOL = 1e-6             # [<Fn>] a contact varies in S if its fn or ft can change by more
+UNBOUNDED_TOL = 1e-7        # [1] recession-cone LP optimum above this: S is unbounded
+CIRCUIT_TOL = 1e-6          # [1] entries of a fundamental circuit below this x its largest are
+                            # round-off couplings, not support
+SUPPORT_TOL = 1e-7          # [1] entries of an L1-minimal circuit below this x its largest
+                            # are round-off, not support
+
+# ---- projection onto S ------------------------------------------------------------------
+KKT_TOL = 1e-9              # [1] stationarity residual (relative) that verifies a projection
+ACTIVE_TOL = 1e-7           # [<Fn>] rows this close to tight start the active-set polish
+POLISH_FEASIBLE = 1e-11     # [<Fn>] a polished point violating a row by more adds it
+SLIDE_TOL = 1e-9            # [<Fn>] selection: a Coulomb row with less slack is active
+
+# ---- sampling ------------------------------------------------------------------------------
+SAMPLE_VIOLATION = 1e-9     # [<Fn>] every stored sample violates S by at most this (checked)
+FLAT_ROW = 1e-9             # [1] |G_i N| below this: row i is constant on S's affine hull
+SPREAD_FLOOR = 1e-8         # [<Fn>] rms spread per contact below which S is numerically a
+                            # point (no Fig. 3 ratio of two round-off numbers)
+ROUNDING_ROW_TOL = 1e-10    # [1] rows of the slack-scaled {A x <= 1} below this x the largest
+                            # row norm never bind (contacts that do not vary in S)
+ROUNDING_CENTRED = 1e-3     # [1] Newton decrement at which the John rounding's centre is found
+MVE_MAX_ROWS = 1500         # [rows] above: John (Lewis-weight) rounding, not the exact MVE
+RELAX_STALL_SWEEPS = 20_000  # [sweeps] relax walk: no 1 % progress in this many is a stall
+
+# ---- point force ----------------------------------------------------------------------------
+DISPLACED = 0.1             # [R] a disk moved by more than this took part in a rearrangement

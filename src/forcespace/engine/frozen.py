@@ -1,0 +1,181 @@
+"""Quasi-static relaxation: NLGS on a frozen contact network until forces balance.
+
+Used for the final static solve of the packing protocol and for the paper's
+perturb-and-relax sampler. Positions are fixed, gaps count as closed, dt = 1;
+masses act only as preconditioner weights. Velocities are recomputed from the
+forces before every chunk of sweeps (``v = dt M^-1 (F_ext + contact forces)``,
+so round-off never accumulates) and the caller's ``violation(rn, rt)`` decides
+when the network is admissible.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import NumericalError
+from ..model.problem import StaticsProblem
+from .nlgs import add_contact_velocities, effective_masses, nlgs_solve
+
+
+@dataclass
+class FrozenContacts:
+    """Kernel arrays of a frozen contact network (see :mod:`forcespace.nlgs`).
+
+    a, b (Nc,) int body indices; nx, ny (Nc,) unit normal a -> b; ra, rb (Nc,)
+    lever arms [R]; mu (Nc,) Coulomb coefficients; inv_mx, inv_my, inv_i (nb,)
+    inverse masses (zero for fixed bodies); v_ext: three arrays (nb,), the
+    velocities dt M^-1 F_ext of the external loads (forces and torques).
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    nx: np.ndarray
+    ny: np.ndarray
+    ra: np.ndarray
+    rb: np.ndarray
+    mu: np.ndarray
+    inv_mx: np.ndarray
+    inv_my: np.ndarray
+    inv_i: np.ndarray
+    v_ext: tuple
+    mn: np.ndarray = field(init=False)
+    mt: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        self.mn, self.mt = effective_masses(self.a, self.b, self.nx, self.ny, self.ra, self.rb,
+                                            self.inv_mx, self.inv_my, self.inv_i)
+        self.closed = np.zeros(self.a.shape[0])
+
+    def velocities(self, rn, rt):
+        """Velocities (vx, vy, w), each (nb,), of the loads and the contact forces rn,
+        rt (Nc,) applied from rest over dt = 1 (statics: masses only precondition)."""
+        vx, vy, w = (v.copy() for v in self.v_ext)
+        add_contact_velocities(self.a, self.b, self.nx, self.ny, self.ra, self.rb, rn, rt,
+                               self.inv_mx, self.inv_my, self.inv_i, 1.0, vx, vy, w)
+        return vx, vy, w
+
+    def sweep(self, rn, rt, velocities, max_sweeps: int, seed: int) -> "SweepResult":
+        """Up to ``max_sweeps`` Gauss-Seidel sweeps on rn, rt (in place), gaps closed,
+        dt = 1 (:func:`forcespace.nlgs.nlgs_solve`)."""
+        vx, vy, w = velocities
+        return SweepResult(*nlgs_solve(
+            self.a, self.b, self.nx, self.ny, self.ra, self.rb, self.closed, self.mu, self.mn,
+            self.mt, rn, rt, vx, vy, w, self.inv_mx, self.inv_my, self.inv_i, 1.0, 0.0,
+            max_sweeps, seed))
+
+
+class SweepResult(NamedTuple):
+    """What a run of Gauss-Seidel sweeps did."""
+
+    sweeps: int
+    relative_change: float       # sum |dR| / sum |R| of the last sweep
+    normal_updates: int
+    tangential_updates: int      # 0 without friction
+
+
+@dataclass(frozen=True)
+class RelaxResult:
+    """Outcome of :func:`relax` (in the spirit of scipy's ``OptimizeResult``).
+
+    sweeps: Gauss-Seidel sweeps done; violation: the caller's measure at the
+    end (e.g. equilibrium residual / <Fn>); tangential_updates: friction
+    updates done (0 without friction); converged: violation <= tol;
+    status: "converged", "stalled" (a non-static fixed point: the violation
+    stopped dropping, bodies keep moving, e.g. sliding) or "max_sweeps";
+    message: one line for reports.
+    """
+
+    sweeps: int
+    violation: float
+    tangential_updates: int
+    converged: bool
+    status: str
+    message: str
+
+
+def relax(system: FrozenContacts, rn, rt, violation, tol, max_sweeps, seed=0, chunk=200,
+          max_chunk=None, stall_sweeps=None, on_chunk=None) -> RelaxResult:
+    """Sweep until ``violation(rn, rt) <= tol``; ``rn, rt`` (Nc,) are updated in place.
+
+    ``chunk`` sweeps run between checks; it doubles up to ``max_chunk`` if given.
+    ``stall_sweeps``: stop (status "stalled") when the violation has not dropped
+    by 1 % for that many sweeps. ``on_chunk(sweeps_done, violation)`` reports
+    progress. Stops at ``max_sweeps`` (status "max_sweeps").
+
+    Returns a :class:`RelaxResult`; the caller decides what non-convergence
+    means. Raises NumericalError only when the forces turn non-finite.
+    """
+    s = system
+    sweeps = n_tang = 0
+    best, since = np.inf, 0
+    while True:
+        done = s.sweep(rn, rt, s.velocities(rn, rt), min(chunk, max_sweeps - sweeps),
+                       (seed * 1_000_003 + sweeps) % (2**31 - 1))
+        sw = done.sweeps
+        sweeps += sw
+        n_tang += done.tangential_updates
+        viol = violation(rn, rt)
+        if on_chunk is not None:
+            on_chunk(sw, viol)
+        if not np.isfinite(viol):
+            raise NumericalError("non-finite forces in the NLGS relaxation")
+        if viol <= tol:
+            return RelaxResult(sweeps, viol, n_tang, True, "converged",
+                               f"violation {viol:.2e} <= {tol:.1e} in {sweeps} sweeps")
+        if viol < 0.99 * best:
+            best, since = viol, 0
+        else:
+            since += sw
+        if stall_sweeps is not None and since >= stall_sweeps:
+            return RelaxResult(sweeps, viol, n_tang, False, "stalled",
+                               f"NLGS relaxation stalled at violation {viol:.2e} (no progress "
+                               f"in {since} sweeps): a non-static solution of the contact "
+                               f"problem (bodies keep moving, e.g. sliding)")
+        if sweeps >= max_sweeps:
+            return RelaxResult(sweeps, viol, n_tang, False, "max_sweeps",
+                               f"NLGS relaxation did not reach violation {tol:.1e} in "
+                               f"{sweeps} sweeps (reached {viol:.2e})")
+        if max_chunk is not None:
+            chunk = min(2 * chunk, max_chunk)
+
+
+def frozen_contacts(p: StaticsProblem) -> FrozenContacts:
+    """The solver view of a statics problem, derived from its H-representation.
+
+    Kernel bodies: the interior disks 0..n-1 (mass and inertia of the disk),
+    one fixed ground n for every support (walls, support disks: they never
+    move, so one body stands for all), and for the plate problem the plate
+    n+1, which moves vertically only, pressed down by the plate row's load
+    b[-1] = top_force. Contacts, normals and loads are read off A and b
+    (:meth:`StaticsProblem.contact_geometry`); masses only precondition.
+    """
+    n = p.n_interior
+    ground = n
+    a, b, nx, ny = p.contact_geometry()
+    plate = p.kind == "full_plate" and p.A.shape[0] > 3 * n
+    nb = n + (2 if plate else 1)
+    ka = np.where(a >= 0, a, ground)
+    if plate:
+        on_plate = np.zeros(p.n_contacts, bool)
+        on_plate[p.A[3 * n].indices // 2] = True
+        ka[on_plate & (a < 0)] = n + 1
+    radius = np.append(p.radius, 0.0)
+    inv_m = np.zeros(nb)
+    inv_m[:n] = 1.0 / p.mass
+    inv_my = inv_m.copy()
+    inv_i = np.zeros(nb)
+    inv_i[:n] = 1.0 / (0.5 * p.mass * p.radius ** 2)
+    v_ext = (np.zeros(nb), np.zeros(nb), np.zeros(nb))
+    v_ext[0][:n] = p.load_force[:, 0] / p.mass
+    v_ext[1][:n] = p.load_force[:, 1] / p.mass
+    v_ext[2][:n] = p.load_torque * inv_i[:n]
+    if plate:   # the plate's mass only preconditions too
+        m_plate = float(p.mass.mean())
+        inv_my[n + 1] = 1.0 / m_plate
+        v_ext[1][n + 1] = -p.b[3 * n] / m_plate
+    return FrozenContacts(a=ka.astype(np.int64), b=b.astype(np.int64), nx=nx, ny=ny,
+                          ra=radius[np.where(a >= 0, a, n)], rb=radius[b],
+                          mu=p.mu.astype(float), inv_mx=inv_m, inv_my=inv_my, inv_i=inv_i,
+                          v_ext=v_ext)

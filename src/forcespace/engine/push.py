@@ -1,0 +1,63 @@
+"""A point force on a settled layer: contact dynamics until the layer is at rest again.
+
+The dynamic half of the paper's point-force experiment (the static half, the
+largest force the rigid network carries, is :func:`forcespace.space.loads.max_point_force`;
+the depth of the rearrangement is :func:`forcespace.measures.rearrangement_depth`).
+Units: lengths in R, forces in F0 (the scene's force unit), as everywhere.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError, NumericalError
+from ..model.packing import Packing
+from ..model.scene import parse_scene_text
+from .protocol import compress, force_unit, make_bodies, static_solve
+
+@dataclass(frozen=True)
+class PushResult:
+    """A push: displacement (n,) [R] of every disk (centre, periodic unwrapped) at the
+    end, whether the layer came to rest within ``max_steps``, the packing at rest
+    afterwards (None if not at rest) and the dynamics' statistics."""
+
+    displacement: np.ndarray
+    at_rest: bool
+    after: Packing | None
+    stats: dict
+
+
+def push(packing: Packing, disk: int, force: float, seed: int = 0,
+         max_steps: int = 100_000) -> PushResult:
+    """Contact dynamics of ``packing``'s scene from its state with an extra downward
+    ``force`` [F0] on ``disk``'s centre, until at rest (the scene's jamming criteria)
+    or ``max_steps`` steps (then ``at_rest`` is False: the disk keeps moving, e.g.
+    creeping through the layer, and the displacements are those reached)."""
+    if not packing.scene_text:
+        raise InputError("packing", "scene_text", "is empty: the packing does not record "
+                         "the scene that made it")
+    scene = parse_scene_text(packing.scene_text).with_overrides(
+        **{"jamming.max_steps": int(max_steps)})
+    if scene["plates.top"] == "load":
+        raise InputError("packing", "plates.top", 'must be "none" (a free surface) for a '
+                         "point force")
+    x0, y0 = np.array(packing.x, float), np.array(packing.y, float)
+    bodies = make_bodies(scene, x0.copy(), y0.copy(), np.asarray(packing.r, float), 0.0,
+                         packing.density if np.ndim(packing.density) else None)
+    bodies.fy_ext[disk] -= force / force_unit(scene)
+    after = None
+    try:
+        stats = compress(scene, bodies, seed, show_progress=False)
+    except NumericalError as exc:
+        if not np.all(np.isfinite(bodies.y)):
+            raise
+        stats = {"steps": int(max_steps), "not_at_rest": str(exc)}
+    else:
+        after, static = static_solve(scene, bodies, seed, show_progress=False)
+        stats.update(static)
+    dx = bodies.x[:packing.n_disks] - x0
+    if scene["box.periodic_x"]:
+        dx -= scene["box.width"] * np.round(dx / scene["box.width"])
+    disp = np.hypot(dx, bodies.y[:packing.n_disks] - y0)
+    return PushResult(displacement=disp, at_rest=after is not None, after=after, stats=stats)

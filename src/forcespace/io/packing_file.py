@@ -1,0 +1,135 @@
+"""The packing file: a :class:`~forcespace.packing.Packing` in self-describing HDF5.
+
+Layout::
+
+    /            attrs: file_kind="packing", forcespace_version, code_version (with the
+                        git commit), format_version, scene_schema_version, mu, plate_mu, seed,
+                        scene_name, scene_text (the full TOML), units, conventions
+    /disks       (n, 3) columns x, y, r                         [R]
+    /disk_density (n,)  per-disk density, only when not uniform  [rho]
+    /box         attrs: width, periodic_x, y_bottom, y_top       [R]
+                        top_force [F0], gravity, density
+    /contacts/bodies  (Nc, 2) int  columns a, b   (disk index or wall code)
+    /contacts/image   (Nc,)   int  periodic image of b (x_b + image*width)
+    /contacts/normal  (Nc, 2)      unit normal a -> b
+    /contacts/point   (Nc, 2)      contact point                [R]
+    /contacts/gap     (Nc,)        surface gap, negative = overlap [R]
+    /forces           (Nc, 2) columns fn, ft  force on b        [F0]
+    /plate_forces     (k, 2)  per-wall total force on the wall  [F0]
+    /solver_log  (k, 5)  compression history (see its attributes)
+    /meta        attrs: solver statistics of the run that made the packing
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from ..errors import InputError
+from ..model.scene import SCHEMA_VERSION
+from .h5 import atomic_h5, open_h5, write_dataset
+from ..model.walls import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES
+from ..model.packing import Packing, check_packing
+
+UNITS = ("lengths in R (smallest radius of the scene's range); masses in rho*R^2 "
+         "(disk mass = density*pi*r^2); forces in F0 (the scene's force unit)")
+CONVENTIONS = ("contact k joins bodies a and b (disk index >= 0; walls -1 bottom, -2 top, "
+               "-3 left, -4 right); normal points a->b; force fn*n + ft*t acts on b, "
+               "t = (-n_y, n_x); fn > 0 compressive; torque on either disk = -r*ft")
+
+
+def write_packing(packing: Packing, path, kind: str = "packing", extra_attrs: dict | None = None):
+    """Write ``packing`` to ``path`` atomically (temp file, then rename)."""
+    p = packing
+    with atomic_h5(path, {"file_kind": kind}) as f:
+        f.attrs.update({"scene_schema_version": SCHEMA_VERSION,
+                        "mu": p.mu, "plate_mu": p.plate_mu, "seed": p.seed,
+                        "scene_name": p.scene_name, "scene_text": p.scene_text,
+                        "units": UNITS, "conventions": CONVENTIONS})
+        for k, v in (extra_attrs or {}).items():
+            f.attrs[k] = v
+        write_dataset(f, "disks", np.column_stack([p.x, p.y, p.r]), "R",
+                      "disk centres and radii", columns=["x", "y", "r"])
+        box = f.create_group("box")
+        box.attrs.update({"width": p.width, "periodic_x": p.periodic_x,
+                          "y_bottom": p.y_bottom, "y_top": p.y_top,
+                          "top_force": p.top_force, "gravity": p.gravity,
+                          "density": float(np.mean(p.density)),
+                          "description": "width [R] (periodic in x if periodic_x), plate "
+                                         "surfaces y_bottom, y_top [R] (nan: absent), "
+                                         "top_force: downward load on the top plate [F0], "
+                                         "gravity along -y, density of the disks"})
+        if np.ndim(p.density):
+            write_dataset(f, "disk_density", np.asarray(p.density, float), "rho",
+                          "2-D density of each disk (box/density is their mean)")
+        c = f.create_group("contacts")
+        c.attrs["description"] = CONVENTIONS
+        write_dataset(c, "bodies", np.column_stack([p.a, p.b]).astype(np.int64), "1",
+                      "body indices; disks >= 0, walls -1 bottom -2 top -3 left -4 right",
+                      columns=["a", "b"])
+        write_dataset(c, "image", p.image.astype(np.int64), "1",
+                      "periodic image of b: its centre is at x_b + image*width")
+        write_dataset(c, "normal", p.normal, "1", "unit normal from a to b", columns=["nx", "ny"])
+        write_dataset(c, "point", p.point, "R", "contact point", columns=["x", "y"])
+        write_dataset(c, "gap", p.gap, "R", "surface gap at the contact; negative = overlap")
+        write_dataset(f, "forces", np.column_stack([p.fn, p.ft]), "F0",
+                      "contact force on b: fn along n (>0 compressive), ft along t=(-ny,nx)",
+                      columns=["fn", "ft"])
+        F = p.contact_forces()
+        walls = [w for w in (BOTTOM, TOP, LEFT, RIGHT) if ((p.a == w) | (p.b == w)).any()]
+        pf = np.array([F[p.b == w].sum(0) - F[p.a == w].sum(0) for w in walls]).reshape(-1, 2)
+        ds = write_dataset(f, "plate_forces", pf, "F0", "total contact force on each wall",
+                           columns=["fx", "fy"])
+        ds.attrs["walls"] = [WALL_NAMES[w] for w in walls]
+        if p.solver_log is not None:
+            write_dataset(f, "solver_log", p.solver_log, "mixed",
+                          "compression history, one row per jamming window: step count, "
+                          "largest mean speed over the window of a loaded disk or the plate "
+                          "[R/time], largest instantaneous disk speed [R/time], mean NLGS sweeps per step, largest final relative force "
+                          "change of a step's NLGS",
+                          columns=["step", "mean_speed", "max_speed", "sweeps_per_step",
+                                   "nlgs_relative_change"])
+        m = f.create_group("meta")
+        m.attrs["description"] = "statistics of the run that produced this file"
+        for k, v in p.meta.items():
+            m.attrs[k] = v if isinstance(v, (int, float, str, bool, np.number)) else json.dumps(v)
+
+
+def read_packing(path, kind: str = "packing") -> Packing:
+    """Read a packing file (or any file of the same schema, e.g. a soft network)."""
+    with open_h5(path, kind) as f:
+        try:
+            d = f["disks"][()]
+            box = dict(f["box"].attrs)
+            c = f["contacts"]
+            ab = c["bodies"][()]
+            forces = f["forces"][()]
+            meta = {k: (v.item() if hasattr(v, "item") else v) for k, v in f["meta"].attrs.items()
+                    if k != "description"}
+            if d.ndim != 2 or d.shape[1] != 3:
+                raise InputError(path, "disks", "must be an (n, 3) table x, y, r", got=d.shape)
+            if ab.ndim != 2 or ab.shape[1] != 2:
+                raise InputError(path, "contacts/bodies", "must be an (Nc, 2) table a, b",
+                                 got=ab.shape)
+            p = Packing(
+                x=d[:, 0].copy(), y=d[:, 1].copy(), r=d[:, 2].copy(),
+                width=float(box["width"]), periodic_x=bool(box["periodic_x"]),
+                y_bottom=float(box["y_bottom"]), y_top=float(box["y_top"]),
+                top_force=float(box["top_force"]), gravity=float(box["gravity"]),
+                density=(f["disk_density"][()] if "disk_density" in f
+                         else float(box["density"])),
+                mu=float(f.attrs["mu"]), plate_mu=float(f.attrs["plate_mu"]),
+                a=ab[:, 0].astype(np.int64), b=ab[:, 1].astype(np.int64),
+                normal=c["normal"][()].reshape(-1, 2), point=c["point"][()].reshape(-1, 2),
+                image=c["image"][()].astype(np.int64), gap=c["gap"][()],
+                fn=forces.reshape(-1, 2)[:, 0].copy(), ft=forces.reshape(-1, 2)[:, 1].copy(),
+                seed=int(f.attrs["seed"]), scene_text=str(f.attrs["scene_text"]),
+                scene_name=str(f.attrs["scene_name"]), meta=meta,
+                solver_log=f["solver_log"][()] if "solver_log" in f else None)
+        except KeyError as exc:
+            raise InputError(path, str(exc.args[0]) if exc.args else "?",
+                             "missing from the file; not a complete forcespace packing") from None
+        except (ValueError, TypeError, IndexError) as exc:
+            raise InputError(path, "(layout)", f"unreadable as a forcespace packing ({exc})") \
+                from None
+    return check_packing(p, path)

@@ -1,0 +1,1 @@
+"""The nouns of forcespace and their invariants: scenes, walls, packings, statics problems."""

@@ -1,0 +1,341 @@
+"""A jammed packing: disks, box, contact network and contact forces.
+
+Conventions (used everywhere in forcespace)
+-------------------------------------------
+* Units: lengths in R (the smallest radius of the scene's radius range),
+  masses in rho*R^2 (2-D density rho, disk mass = density*pi*r^2),
+  forces in the scene's force unit F0 (the top-plate load is given in F0).
+* Bodies: disks are 0..n-1. Walls have negative codes: ``BOTTOM`` (fixed
+  lower plate), ``TOP`` (load-controlled upper plate, vertical motion only),
+  ``LEFT`` and ``RIGHT`` (side walls, only when x is not periodic).
+* A contact k joins body ``a[k]`` and body ``b[k]``; ``normal[k]`` is the
+  unit vector from a to b; the force ``fn*n + ft*t`` acts on b and its
+  negative on a, with t = (-n_y, n_x) (n turned by +90 degrees).
+  ``fn > 0`` is compression. For a disk the torque of contact k is
+  ``-r*ft`` on b and ``-r*ft`` on a (both bodies turn the same way).
+* Periodic x: b's centre is taken at ``x_b + image*width``.
+* Wall contacts: BOTTOM is always ``a`` (n = (0, 1)), TOP is always ``b``
+  (n = (0, 1)), LEFT is ``a`` (n = (1, 0)), RIGHT is ``b`` (n = (1, 0)).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import InputError
+from .scene import parse_scene_text
+from .walls import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES  # noqa: F401 (re-exported)
+
+
+@dataclass
+class Packing:
+    """A static packing with its contact network and one admissible force state.
+
+    Arrays: x, y, r of shape (n,) [R]; a, b, image of shape (Nc,) int;
+    normal, point of shape (Nc, 2); gap, fn, ft of shape (Nc,) [R], [F0], [F0].
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    r: np.ndarray
+    width: float
+    periodic_x: bool
+    y_bottom: float          # top surface of the lower plate [R] (nan: no plate)
+    y_top: float             # bottom surface of the upper plate [R] (nan: no plate)
+    top_force: float         # downward load on the upper plate [F0]
+    gravity: float           # acceleration along -y [F0/(rho R^3)]
+    density: float | np.ndarray  # 2-D density [rho], uniform or per disk (n,)
+    mu: float                # disk-disk Coulomb friction
+    plate_mu: float          # disk-wall Coulomb friction
+    a: np.ndarray
+    b: np.ndarray
+    normal: np.ndarray
+    point: np.ndarray
+    image: np.ndarray
+    gap: np.ndarray
+    fn: np.ndarray
+    ft: np.ndarray
+    seed: int = 0
+    scene_text: str = ""
+    scene_name: str = ""
+    meta: dict = field(default_factory=dict)
+    solver_log: np.ndarray | None = None  # (k, 5): step, max |v|, |v_top|, sweeps/step, rel. change
+
+    # ---- construction, files, figures ----------------------------------------
+    @classmethod
+    def from_arrays(cls, x, y, r, a, b, fn=None, ft=None, *, width=None, periodic_x=False,
+                    image=None, y_bottom=np.nan, y_top=np.nan, top_force=0.0, gravity=0.0,
+                    density=1.0, mu=0.0, plate_mu=0.0, scene_name="") -> "Packing":
+        """A packing from positions, radii and a contact list; geometry derived.
+
+        x, y, r (n,) [R]; a, b (Nc,) body indices (disks >= 0, walls BOTTOM,
+        TOP, LEFT, RIGHT with the wall conventions of the module docstring);
+        fn, ft (Nc,) [F0] (default 0). Normals, contact points and gaps come
+        from the geometry (periodic x: b at x_b + image*width, image default
+        the minimum image). Without ``width`` a non-periodic box spans the disks.
+        """
+        x, y, r = (np.asarray(v, float).copy() for v in (x, y, r))
+        a = np.asarray(a, np.int64).copy()
+        b = np.asarray(b, np.int64).copy()
+        nc = a.shape[0]
+        if width is None:
+            if periodic_x:
+                raise InputError("from_arrays", "width", "is needed with periodic_x")
+            width = float((x + r).max() - min(0.0, (x - r).min()))
+        img = np.zeros(nc, np.int64) if image is None else np.asarray(image, np.int64).copy()
+        normal = np.zeros((nc, 2))
+        gap = np.zeros(nc)
+        point = np.zeros((nc, 2))
+        for k in range(nc):
+            i, j = int(a[k]), int(b[k])
+            if i >= 0 and j >= 0:
+                dx = x[j] - x[i]
+                if periodic_x and image is None:
+                    img[k] = -int(np.floor(dx / width + 0.5))
+                dx += img[k] * width
+                dist = np.hypot(dx, y[j] - y[i])
+                normal[k] = dx / dist, (y[j] - y[i]) / dist
+                gap[k] = dist - r[i] - r[j]
+                point[k] = (x[i], y[i]) + (r[i] + 0.5 * gap[k]) * normal[k]
+            else:
+                disk = j if i < 0 else i
+                wall = i if i < 0 else j
+                if (wall, disk == j) not in ((BOTTOM, True), (TOP, False), (LEFT, True),
+                                             (RIGHT, False)):
+                    raise InputError("from_arrays", "a, b", f"contact {k}: BOTTOM and LEFT "
+                                     "must be body a, TOP and RIGHT body b", got=(i, j))
+                horizontal = wall in (BOTTOM, TOP)
+                normal[k] = (0.0, 1.0) if horizontal else (1.0, 0.0)
+                sign = -1.0 if wall in (BOTTOM, LEFT) else 1.0
+                point[k] = (x[disk], y[disk]) + sign * r[disk] * normal[k]
+                surface = {BOTTOM: y_bottom, TOP: y_top, LEFT: 0.0, RIGHT: width}[wall]
+                coord = point[k, 1] if horizontal else point[k, 0]
+                gap[k] = (coord - surface) * (-sign) if np.isfinite(surface) else 0.0
+        zeros = np.zeros(nc)
+        p = cls(x=x, y=y, r=r, width=float(width), periodic_x=bool(periodic_x),
+                y_bottom=float(y_bottom), y_top=float(y_top), top_force=float(top_force),
+                gravity=float(gravity), density=density, mu=float(mu), plate_mu=float(plate_mu),
+                a=a, b=b, normal=normal, point=point, image=img, gap=gap,
+                fn=zeros.copy() if fn is None else np.asarray(fn, float).copy(),
+                ft=zeros.copy() if ft is None else np.asarray(ft, float).copy(),
+                scene_name=scene_name)
+        return check_packing(p, "from_arrays")
+
+    def plot(self, ax=None, values=None, signed: bool = False, **kw):
+        """Draw the disks and the force network on ``ax`` (see
+        :func:`forcespace.plot.plot_packing`); returns the Axes."""
+        from ..plot import plot_packing
+        return plot_packing(self, ax, values=values, signed=signed, **kw)
+
+    def __repr__(self) -> str:
+        walls = "periodic x" if self.periodic_x else "side walls"
+        return (f"Packing(n_disks={self.n_disks}, n_contacts={self.n_contacts}, mu={self.mu:g}, "
+                f"width={self.width:g} R, {walls}, scene={self.scene_name!r})")
+
+    @property
+    def scene_slice_height(self) -> float | None:
+        """``[analysis] slice_height`` of the scene that made this packing [R], or None
+        (absent, 0, or no readable scene stored)."""
+        if not (self.scene_text or "").strip():
+            return None
+        try:
+            h = parse_scene_text(self.scene_text)["analysis.slice_height"]
+        except InputError:  # a scene text that does not validate just means "no default"
+            return None
+        return h if h > 0 else None
+
+    # ---- derived quantities -------------------------------------------------
+    @property
+    def n_disks(self) -> int:
+        return int(self.x.shape[0])
+
+    @property
+    def n_contacts(self) -> int:
+        return int(self.a.shape[0])
+
+    @property
+    def mass(self) -> np.ndarray:
+        """Disk masses, shape (n,) [rho R^2]."""
+        return np.asarray(self.density, float) * np.pi * self.r**2
+
+    @property
+    def tangent(self) -> np.ndarray:
+        """Unit tangents t = (-n_y, n_x), shape (Nc, 2)."""
+        return np.stack([-self.normal[:, 1], self.normal[:, 0]], axis=1)
+
+    def contact_forces(self) -> np.ndarray:
+        """Force vectors on body b, shape (Nc, 2) [F0]."""
+        return self.fn[:, None] * self.normal + self.ft[:, None] * self.tangent
+
+    def external_forces(self) -> np.ndarray:
+        """Body forces on the disks (gravity), shape (n, 2) [F0]."""
+        f = np.zeros((self.n_disks, 2))
+        if self.gravity != 0.0:
+            f[:, 1] = -self.mass * self.gravity
+        return f
+
+    def net_forces(self, fn=None, ft=None):
+        """Net force (n, 2) and torque (n,) on every disk, and net vertical force on TOP.
+
+        Uses the packing's forces unless ``fn``/``ft`` are given.
+        """
+        fn = self.fn if fn is None else fn
+        ft = self.ft if ft is None else ft
+        F = fn[:, None] * self.normal + ft[:, None] * self.tangent
+        n = self.n_disks
+        force = self.external_forces()
+        torque = np.zeros(n)
+        ma, mb = self.a >= 0, self.b >= 0
+        np.add.at(force, self.b[mb], F[mb])
+        np.add.at(force, self.a[ma], -F[ma])
+        np.add.at(torque, self.b[mb], -self.r[self.b[mb]] * ft[mb])
+        np.add.at(torque, self.a[ma], -self.r[self.a[ma]] * ft[ma])
+        top = (self.b == TOP)
+        plate = float(F[top, 1].sum() - self.top_force) if np.isfinite(self.y_top) else 0.0
+        return force, torque, plate
+
+    def mean_normal_force(self) -> float:
+        """Mean normal force over force-bearing contacts [F0] (0 if none)."""
+        carrying = self.fn > 0
+        return float(self.fn[carrying].mean()) if carrying.any() else 0.0
+
+    def equilibrium_residual(self, fn=None, ft=None) -> float:
+        """Largest force/torque imbalance of any disk or the top plate.
+
+        Force imbalances are divided by the mean normal force, torques by
+        r_k times the mean normal force. Disks without contacts and without
+        body forces (rattlers in zero gravity) are in equilibrium trivially.
+        """
+        force, torque, plate = self.net_forces(fn, ft)
+        scale = self.mean_normal_force()
+        if scale == 0.0:
+            return 0.0 if not (np.abs(force).max(initial=0) > 0) else float("inf")
+        res = max(np.abs(force).max(initial=0.0),
+                  (np.abs(torque) / self.r).max(initial=0.0), abs(plate))
+        return float(res / scale)
+
+    def max_overlap(self) -> float:
+        """Largest overlap (negative gap) among the contacts [R]; 0 if none."""
+        return float(max(0.0, -self.gap.min(initial=0.0)))
+
+    def force_bearing(self, rel_threshold: float = 1e-9) -> np.ndarray:
+        """Mask (Nc,) of contacts whose normal force exceeds threshold * mean force."""
+        return self.fn > rel_threshold * max(self.mean_normal_force(), 1e-300)
+
+    def rattlers(self, rel_threshold: float = 1e-9) -> np.ndarray:
+        """Boolean mask (n,) of rattlers: disks that carry no load.
+
+        Convention: a rattler has no force-bearing contact (fn above
+        ``rel_threshold`` times the mean normal force), whatever its number
+        of touching neighbours. A disk that bears load is never a rattler,
+        even with 1 or 2 contacts (a disk in a groove under gravity).
+        """
+        live = self.force_bearing(rel_threshold)
+        carrying = np.zeros(self.n_disks, dtype=bool)
+        carrying[self.a[live & (self.a >= 0)]] = True
+        carrying[self.b[live & (self.b >= 0)]] = True
+        return ~carrying
+
+    def coordination(self, rel_threshold: float = 1e-9) -> float:
+        """z = 2 Nc / n over non-rattler disks, Nc = force-bearing contacts among them.
+
+        Disk-wall contacts count as full contacts, so an isostatic frictionless
+        packing gives z = 4 up to O(1/n) boundary terms.
+        """
+        rat = self.rattlers(rel_threshold)
+        live = self.force_bearing(rel_threshold)
+        keep_a = (self.a < 0) | ~rat[np.maximum(self.a, 0)]
+        keep_b = (self.b < 0) | ~rat[np.maximum(self.b, 0)]
+        nc = int((live & keep_a & keep_b).sum())
+        n = int((~rat).sum())
+        return 2.0 * nc / n if n else 0.0
+
+    def with_forces(self, fn, ft) -> "Packing":
+        """A copy carrying another force state on the same contact network."""
+        return replace(self, fn=np.asarray(fn, float).copy(), ft=np.asarray(ft, float).copy())
+
+    def summary(self) -> dict:
+        """The numbers `forcespace info --json` prints."""
+        rat = self.rattlers()
+        return {
+            "n_disks": self.n_disks,
+            "n_contacts": self.n_contacts,
+            "n_force_bearing": int(self.force_bearing().sum()),
+            "z": self.coordination(),
+            "z_convention": "2*Nc/n over non-rattlers, Nc force-bearing contacts "
+                            "(fn > 1e-9 <Fn>), wall contacts count; rattler: a disk with no "
+                            "force-bearing contact (carries no load)",
+            "n_rattlers": int(rat.sum()),
+            "mu": self.mu,
+            "plate_mu": self.plate_mu,
+            "seed": self.seed,
+            "width": self.width,
+            "height": float(self.y_top - self.y_bottom) if np.isfinite(self.y_top) else None,
+            "packing_fraction": self.packing_fraction(),
+            "mean_normal_force": self.mean_normal_force(),
+            "equilibrium_residual": self.equilibrium_residual(),
+            "max_overlap": self.max_overlap(),
+            **{k: v for k, v in self.meta.items() if isinstance(v, (int, float, str, bool))},
+        }
+
+    def packing_fraction(self) -> float | None:
+        """Disk area over box area (between the plates), or None without both plates."""
+        if not (np.isfinite(self.y_top) and np.isfinite(self.y_bottom)):
+            return None
+        return float(np.pi * (self.r**2).sum() / (self.width * (self.y_top - self.y_bottom)))
+
+
+def check_packing(p: Packing, source="packing") -> Packing:
+    """Validate a packing's arrays (shapes, finiteness, ranges, indices); returns it.
+
+    Raises InputError naming ``source``, the field and what is allowed. Called
+    on every read of a packing file and before building a statics problem.
+    """
+    def bad(field, allowed, got=None):
+        raise InputError(source, field, allowed, got=got)
+
+    n = p.x.shape[0] if np.ndim(p.x) == 1 else bad("disks", "must be an (n, 3) table x, y, r")
+    if n == 0:
+        bad("disks", "the packing has no disks")
+    for name in ("y", "r"):
+        if np.shape(getattr(p, name)) != (n,):
+            bad(f"disks/{name}", f"must have shape ({n},)", got=np.shape(getattr(p, name)))
+    for name in ("x", "y", "r"):
+        if not np.all(np.isfinite(getattr(p, name))):
+            bad(f"disks/{name}", "must be finite (found NaN/inf)")
+    if np.any(p.r <= 0):
+        bad("disks/r", "radii must be > 0", got=float(np.min(p.r)))
+    rho = np.asarray(p.density, float)
+    if rho.shape not in ((), (n,)) or not np.all(np.isfinite(rho)) or np.any(rho <= 0):
+        bad("density", "must be finite and > 0 (one value or one per disk)")
+    for name, lo in (("mu", 0.0), ("plate_mu", 0.0), ("gravity", 0.0)):
+        v = getattr(p, name)
+        if not (np.isfinite(v) and v >= lo):
+            bad(name, f"must be a finite number >= {lo:g}", got=v)
+    if not (np.isfinite(p.width) and p.width > 0):
+        bad("box/width", "must be a finite number > 0", got=p.width)
+    if not np.isfinite(p.top_force):
+        bad("box/top_force", "must be finite", got=p.top_force)
+    for name in ("y_bottom", "y_top"):
+        if np.isinf(getattr(p, name)):
+            bad(f"box/{name}", "must be finite, or NaN for an absent plate")
+    nc = p.a.shape[0]
+    for name, shape in (("b", (nc,)), ("image", (nc,)), ("gap", (nc,)), ("fn", (nc,)),
+                        ("ft", (nc,)), ("normal", (nc, 2)), ("point", (nc, 2))):
+        if np.shape(getattr(p, name)) != shape:
+            bad(f"contacts/{name}", f"must have shape {shape}", got=np.shape(getattr(p, name)))
+    for name in ("a", "b"):
+        idx = np.asarray(getattr(p, name))
+        if idx.size and (idx.min() < RIGHT or idx.max() >= n):
+            bad("contacts/bodies", f"indices must be disks 0..{n - 1} or walls -1..-4",
+                got=(int(idx.min()), int(idx.max())))
+    if np.any(p.a == p.b):
+        bad("contacts/bodies", "a contact must join two different bodies")
+    for name in ("normal", "point", "gap", "fn", "ft"):
+        if not np.all(np.isfinite(getattr(p, name))):
+            bad(f"contacts/{name}" if name not in ("fn", "ft") else "forces",
+                "must be finite (found NaN/inf)")
+    if nc and np.abs(np.hypot(p.normal[:, 0], p.normal[:, 1]) - 1.0).max() > 1e-6:
+        bad("contacts/normal", "must be unit vectors")
+    return p

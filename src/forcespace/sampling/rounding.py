@@ -1,0 +1,297 @@
+"""Rounding of a polytope by an inscribed ellipsoid: the exact maximum-volume one
+(MVE, interior point, cost O(p^3) per iteration) or a John-ellipsoid
+approximation by Lewis-weight fixed point (cost O(p d^2) per iteration).
+
+For P = {y : H y <= s} (H (p, d), s (p,), full-dimensional, bounded) the MVE
+{c + E u : |u| <= 1} is found by the primal-dual interior-point method of
+Zhang & Gao (2003, "An interior-point algorithm for the maximum-volume
+ellipsoid problem"; the algorithm of Y. Zhang's ``mve_solver`` that COBRA and
+PolyRound use). Mapping y = c + E^{1/2} w makes the MVE the unit ball, and by
+John's theorem the rounded polytope then lies within the ball of radius d:
+a rounded polytope in which hit-and-run mixes in O(d^2) coordinate steps.
+
+For p rows much larger than d (the slices of big packings: p ~ 3 Nc, d ~ 0.3 Nc)
+the interior point's p x p factorisations dominate everything (a 2000-disk slice,
+p ~ 4900-7400, took 1000-2700 s), so :func:`john_ellipsoid` replaces it there: the
+fixed point w_i <- w_i a_i^T (A^T W A)^{-1} a_i of Cohen, Cousins, Lee & Yang
+(2019, "A near-optimal algorithm for approximating the John ellipsoid"), whose
+fixed point is John's condition, interleaved with Newton steps towards the
+w-weighted analytic centre (the centre the weights balance). Its ellipsoid is
+scaled to be inscribed exactly; it is the MVE for a simplex or a box, and close
+to it otherwise (tests compare the two).
+
+Plain linear algebra; the only output is an optional progress bar (stderr).
+Units: whatever the caller uses for y and s
+(hit_and_run passes y in units of <Fn>).
+"""
+from __future__ import annotations
+
+from functools import partial
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..errors import InputError, NumericalError
+
+ROW_TOL = 1e-10   # rows of {A x <= 1} below this x the largest row norm are round-off
+CENTRED = 1e-3    # Newton decrement at which john_ellipsoid counts its centre as found
+
+
+def _live_rows(A):
+    """Mask (p,) of the rows of the slack-scaled {A x <= 1} that can bind: rows that are
+    zero up to round-off (inequalities whose slack is constant on the hull: contacts
+    that do not vary in S) never bind, and with them an iteration stalls (their
+    residual never falls)."""
+    nrm = np.linalg.norm(A, axis=1)
+    return nrm > ROW_TOL * nrm.max(initial=0.0)
+
+
+def _spd_factor(M):
+    """Cholesky factor of the SPD matrix M (LU fallback if round-off makes it indefinite)."""
+    try:
+        return ("chol", sla.cho_factor(M, lower=False, check_finite=False))
+    except np.linalg.LinAlgError:
+        return ("lu", sla.lu_factor(M, check_finite=False))
+
+
+def _spd_solve(fac, b):
+    kind, f = fac
+    return sla.cho_solve(f, b, check_finite=False) if kind == "chol" else \
+        sla.lu_solve(f, b, check_finite=False)
+
+
+def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7, minmu: float = 1e-8,
+        callback=None):
+    """Maximum-volume ellipsoid inscribed in {H y <= s}.
+
+    H (p, d), s (p,), y0 (d,) a strictly interior point. Returns
+    (c (d,) centre, E2 (d, d) SPD with the ellipsoid {c + E2^{1/2} u: |u| <= 1},
+    converged: bool, iterations). The iterate is feasible throughout, so an
+    unconverged result is still an inscribed ellipsoid (merely not the largest).
+    Stops when the KKT residual is below ``tol`` (1 + sqrt(p)) and the
+    centring parameter has reached ``minmu``. ``callback(it, res, gap)`` is
+    called once per interior-point iteration (progress display).
+
+    Cost per iteration: one Cholesky factorisation of the p x p matrix Gm
+    (symmetric positive definite), reused for both of its solves.
+    """
+    A = np.asarray(H, float)
+    s = np.asarray(s, float)
+    p, d = A.shape
+    slack0 = s - A @ y0
+    if not np.all(slack0 > 0):
+        raise InputError("mve", "y0", "must be strictly inside the polytope",
+                         got=float(slack0.min()))
+    A = A / slack0[:, None]          # now {A x <= 1}, x = y - y0
+    A = A[_live_rows(A)]
+    p = A.shape[0]
+    tau0 = 0.75
+    bnrm = np.sqrt(p)
+    x = np.zeros(d)
+    y = np.ones(p)
+    bmAx = np.ones(p)
+    z = np.ones(p)
+    astep, Adx = 0.0, np.zeros(p)
+    ok = False
+    it = 0
+    for it in range(maxiter):
+        if it > 0:
+            bmAx = bmAx - astep * Adx
+        try:
+            E2 = np.linalg.inv(A.T @ (y[:, None] * A))
+        except np.linalg.LinAlgError as exc:
+            raise NumericalError(f"MVE rounding: singular system ({exc}); S is flat "
+                                 "in a direction the analysis kept") from exc
+        Q = A @ E2 @ A.T
+        h = np.sqrt(np.maximum(np.diag(Q), 0.0))
+        if it == 0:
+            t = np.min(bmAx / h)
+            y = y / t ** 2
+            h = t * h
+            z = np.maximum(0.1, bmAx - h)
+            Q = t ** 2 * Q
+        yz = y * z
+        yh = y * h
+        gap = yz.sum() / p
+        rmu = max(min(0.5, gap) * gap, minmu)
+        R1 = -A.T @ yh
+        R2 = bmAx - h - z
+        R3 = rmu - yz
+        res = max(np.abs(R1).max(), np.abs(R2).max(), np.abs(R3).max())
+        if callback is not None:
+            callback(it, res, gap)
+        if res < tol * (1 + bnrm) and rmu <= minmu:
+            ok = True
+            break
+        YQ = y[:, None] * Q
+        Gm = YQ * YQ.T
+        y2h = 2 * yh
+        Gm[np.diag_indices(p)] += np.maximum(1e-12, y2h * z)
+        YA = y[:, None] * A
+        fac = _spd_factor(Gm)
+        T = _spd_solve(fac, (h + z)[:, None] * YA)
+        ATP = (y2h[:, None] * T - YA).T
+        R3Dy = R3 / y
+        R23 = R2 - R3Dy
+        dx = np.linalg.solve(ATP @ A, R1 + ATP @ R23)
+        Adx = A @ dx
+        dyDy = _spd_solve(fac, y2h * (Adx - R23))
+        dy = y * dyDy
+        dz = R3Dy - z * dyDy
+        ax = -1.0 / min(np.min(-Adx / bmAx), -0.5)
+        ay = -1.0 / min(np.min(dyDy), -0.5)
+        az = -1.0 / min(np.min(dz / z), -0.5)
+        tau = max(tau0, 1 - res)
+        astep = tau * min(1.0, ax, ay, az)
+        x = x + astep * dx
+        y = y + astep * dy
+        z = z + astep * dz
+    E2 = np.linalg.inv(A.T @ (y[:, None] * A))
+    E2 = 0.5 * (E2 + E2.T)
+    return x + y0, E2, ok, it
+
+
+def john_ellipsoid(H, s, y0, maxiter: int = 300, tol: float = 0.05, callback=None,
+                   warm: dict | None = None):
+    """Approximate John (max-volume inscribed) ellipsoid of {H y <= s}, O(p d^2) per iteration.
+
+    H (p, d), s (p,), y0 (d,) strictly interior. Returns (c (d,), E2 (d, d) SPD,
+    converged, iterations) like :func:`mve`; the ellipsoid {c + E2^{1/2} u : |u| <= 1}
+    is inside the polytope (exactly: E2 is scaled by 1 / max_i a_i^T E2 a_i in the
+    slack-scaled rows a_i = H_i / (s_i - H_i c)).
+
+    Alternates Newton steps to the w-weighted analytic centre (until the Newton
+    decrement is below CENTRED) with one Lewis-weight update w_i <- w_i
+    a_i^T M^{-1} a_i, M = sum w_i a_i a_i^T (weights renormalised to sum d and
+    floored at 1e-6 d/p: weights left to vanish let the centre drift onto their
+    rows and the iteration oscillates). Converged: John's condition
+    max_i a_i^T M^{-1} a_i <= 1 + ``tol`` at a centred point, i.e. the axes are within
+    a factor (1 + tol)^{1/2} of the fixed point's, which is the MVE. Each
+    iteration (Newton step or weight update) costs one d x d Cholesky factorisation
+    of M. ``callback(it, john_excess, newton_decrement)`` once per iteration.
+    ``warm``: a dict carrying the weights (p,) from one call to the next; weights
+    and centre are affine invariant, so a second call on the polytope mapped by the
+    first one's ellipsoid starts at its fixed point (the check round of
+    :func:`mve_rounding` then costs a few iterations, not a second solve).
+    """
+    H = np.asarray(H, float)
+    s = np.asarray(s, float)
+    p, d = H.shape
+    y = np.asarray(y0, float).copy()
+    r = s - H @ y
+    if not np.all(r > 0):
+        raise InputError("john_ellipsoid", "y0", "must be strictly inside the polytope",
+                         got=float(r.min()))
+    keep = _live_rows(H / r[:, None])
+    H, s, r = H[keep], s[keep], r[keep]
+    p = H.shape[0]
+    w = np.full(p, d / p)
+    if warm is not None and np.shape(warm.get("w")) == keep.shape:
+        w = np.maximum(warm["w"][keep], 1e-6 * d / p)
+    ok = False
+    excess = np.inf
+    it = 0
+    for it in range(maxiter):
+        At = H / r[:, None]
+        M = At.T @ (w[:, None] * At)
+        try:
+            cf = sla.cho_factor(M, lower=True, check_finite=False)
+        except np.linalg.LinAlgError as exc:
+            raise NumericalError(f"John rounding: singular system ({exc}); S is flat in a "
+                                 "direction the analysis kept") from exc
+        g = At.T @ w                                  # gradient of -sum w log r
+        dy = -sla.cho_solve(cf, g, check_finite=False)
+        dec = float(np.sqrt(max(-g @ dy, 0.0)))
+        if callback is not None:
+            callback(it, excess, dec)
+        if dec > CENTRED:                             # centre first: Newton step,
+            Hdy = H @ dy                              # damped outside the quadratic region
+            pos = Hdy > 0
+            amax = float(np.min(r[pos] / Hdy[pos])) if pos.any() else np.inf
+            a = min(1.0 / (1.0 + dec) if dec > 0.25 else 1.0, 0.9 * amax)
+            phi0 = -w @ np.log(r)
+            while a > 1e-12:
+                rt = r - a * Hdy
+                if np.all(rt > 0) and -w @ np.log(rt) <= phi0 + 1e-4 * a * (g @ dy):
+                    break
+                a *= 0.5
+            y = y + a * dy
+            r = s - H @ y
+            continue
+        X = sla.solve_triangular(cf[0], At.T, lower=True, check_finite=False)
+        lev = np.einsum("ij,ij->j", X, X)            # a_i^T M^-1 a_i, (p,)
+        excess = float(lev.max() - 1.0)
+        if excess <= tol:
+            ok = True
+            break
+        w = w * lev                                   # Lewis-weight fixed point
+        w = np.maximum(w * (d / w.sum()), 1e-6 * d / p)
+    if warm is not None:
+        warm["w"] = np.zeros(keep.shape)
+        warm["w"][keep] = w
+    At = H / r[:, None]
+    E2 = np.linalg.inv(At.T @ (w[:, None] * At))
+    E2 = 0.5 * (E2 + E2.T)
+    E2 /= max(float(((At @ E2) * At).sum(1).max()), 1e-300)
+    return y, E2, ok, it
+
+
+ROUNDING_METHODS = ("mve", "john")
+
+
+def mve_rounding(H, s, y0, max_rounds: int = 4, ratio: float = 6.0, progress: bool = False,
+                 method: str = "mve"):
+    """Iterated MVE rounding: (shift (d,), L (d, d), info dict).
+
+    y = shift + L w maps {H y <= s} to {(H L) w <= s - H shift} whose MVE is
+    (close to) the unit ball centred at w = 0. Repeats in the new frame until
+    the MVE's axis ratio is below ``ratio`` (round-off in very thin polytopes
+    needs a second pass). info: rounds, last axis ratio, converged flags,
+    interior-point iterations per round. ``progress``: a bar on stderr counting
+    interior-point iterations, with the round, KKT residual and duality gap.
+    ``method``: "mve" (exact, :func:`mve`) or "john" (:func:`john_ellipsoid`).
+    """
+    from ..progress import progress as progress_bar
+
+    H = np.asarray(H, float)
+    d = H.shape[1]
+    shift = np.asarray(y0, float).copy()
+    L = np.eye(d)
+    if method not in ROUNDING_METHODS:
+        raise InputError("rounding", "method", f"must be one of {ROUNDING_METHODS}", got=method)
+    warm: dict = {}
+    solve, labels = (mve, ("residual", "gap")) if method == "mve" else \
+        (partial(john_ellipsoid, warm=warm), ("John excess", "Newton decrement"))
+    info = {"method": method, "rounds": 0, "axis_ratio": [], "converged": [],
+            "iterations": []}
+    bar = progress_bar(desc=f"{method.upper()} rounding (dim {d}, {H.shape[0]} rows)",
+                       unit="it", disable=not progress)
+
+    def show(it, a, b):
+        bar.set_postfix_str(f"round {info['rounds'] + 1}, {labels[0]} {a:.1e}, "
+                            f"{labels[1]} {b:.1e}", refresh=False)
+        bar.update(1)
+
+    with bar:
+        for _ in range(max_rounds):
+            Hl = H @ L
+            sl = s - H @ shift
+            c, E2, ok, its = solve(Hl, sl, np.zeros(d), callback=show)
+            info["iterations"].append(int(its) + 1)
+            info, shift, L, r = _next_round(info, shift, L, c, E2, ok)
+            if r < ratio or (method == "john" and not ok):
+                break      # round; or John's iteration used its budget: another round
+                           # would continue the same iteration (warm weights), not fix it
+    return shift, L, info
+
+
+def _next_round(info, shift, L, c, E2, ok):
+    """Record one round's ellipsoid and compose the map: (info, shift, L, axis ratio)."""
+    ev, V = np.linalg.eigh(E2)
+    if ev.min() <= 0:
+        raise NumericalError("MVE rounding: ellipsoid not positive definite")
+    r = float(np.sqrt(ev.max() / ev.min()))
+    info["rounds"] += 1
+    info["axis_ratio"].append(r)
+    info["converged"].append(bool(ok))
+    return info, shift + L @ c, L @ (V * np.sqrt(ev)), r

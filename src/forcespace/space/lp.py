@@ -1,0 +1,73 @@
+"""Linear programs over S with HiGHS (scipy's ``linprog``): retries, bounds, scaling.
+
+S = {x : A x = b, x_fixed = 0, G x <= 0} (see :mod:`forcespace.model.problem` for the
+columns and rows). HiGHS' tolerances are absolute (primal/dual feasibility 1e-7):
+with forces of 1e-12 F0 every slack looks like zero, with 1e12 F0 nothing looks
+feasible. S scales exactly with the loads, so every question is asked of the
+problem scaled to <Fn> = 1 (:func:`unit_problem`) and its answers scaled back.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import linprog
+
+from .. import config
+from ..errors import InputError
+from ..model.problem import StaticsProblem
+
+# HiGHS set-ups tried in turn when one ends without an answer (status 1 or 4: iteration
+# limit, numerical difficulties, or HiGHS's "model status unknown", seen on ill-conditioned
+# slices at mu >= 0.4): the default, dual simplex without presolve, interior point.
+LP_ATTEMPTS = (("highs", {}), ("highs-ds", {"presolve": False}), ("highs-ipm", {}))
+# Large problems (n_columns >= config.SWEEP_MIN_COLUMNS) solve the feasibility, boundedness,
+# implicit-equality and Chebyshev-centre LPs by interior point (with HiGHS' crossover to
+# a basic solution) first: the simplex iteration count grows with the size, IPM's does
+# not (measured 2x faster at 2000 disks, see studies/bench.py analysis). Then the chain
+# above.
+LP_ATTEMPTS_LARGE = (("highs-ipm", {}),) + LP_ATTEMPTS
+
+
+def attempts_for(problem: StaticsProblem):
+    """The LP set-ups to try for the feasibility / boundedness / implicit LPs of problem."""
+    return LP_ATTEMPTS_LARGE if problem.n_columns >= config.SWEEP_MIN_COLUMNS else LP_ATTEMPTS
+
+
+def solve_lp(c, A_ub=None, b_ub=None, A_eq=None, b_eq=None, bounds=None, attempts=None):
+    """scipy/HiGHS linprog; status 0 optimal, 2 infeasible, 3 unbounded are answers,
+    anything else is retried with the next of ``attempts`` (default LP_ATTEMPTS; the
+    last result is returned)."""
+    for method, options in (LP_ATTEMPTS if attempts is None else attempts):
+        res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds,
+                      method=method, options=options)
+        if res.status in (0, 2, 3):
+            break
+    return res
+
+
+def bounds_list(lo, hi):
+    return list(zip([None if not np.isfinite(v) else v for v in lo],
+                    [None if not np.isfinite(v) else v for v in hi]))
+
+
+def eq_system(problem: StaticsProblem, extra_rows=None):
+    """Equality matrix [A; fixed columns; extra] as CSR and its rhs."""
+    m2 = problem.n_columns
+    fixed = problem.fixed_columns()
+    F = sp.csr_matrix((np.ones(fixed.size), (np.arange(fixed.size), fixed)),
+                      shape=(fixed.size, m2))
+    blocks = [problem.A, F]
+    rhs = [problem.b, np.zeros(fixed.size)]
+    if extra_rows is not None and extra_rows.shape[0]:
+        blocks.append(extra_rows)
+        rhs.append(np.zeros(extra_rows.shape[0]))
+    return sp.vstack(blocks).tocsr(), np.concatenate(rhs)
+
+
+def unit_problem(problem: StaticsProblem):
+    """(problem scaled to force_scale 1, the scale s [F0])."""
+    s = float(problem.force_scale)
+    if not (np.isfinite(s) and s > 0):
+        raise InputError(problem.source or "problem", "force_scale",
+                         "must be a finite number > 0 (the mean normal force <Fn>)", got=s)
+    return (problem if s == 1.0 else problem.scaled(1.0 / s)), s

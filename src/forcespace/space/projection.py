@@ -1,0 +1,249 @@
+"""The Euclidean projection onto S (distance of a force network to S), verified.
+
+The projection is a convex QP, solved exactly by least-distance programming in the
+null space of the equalities (Lawson-Hanson via scipy's NNLS, a finite active-set
+method; HiGHS' QP solver cycled on the degenerate Coulomb apexes and was dropped),
+then *polished and verified* by an exact active-set step whose KKT conditions are
+checked. Where that verification fails on ill-conditioned slices, the network of S
+nearest in the L1 norm (one LP) is the fallback of the relax walk.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+from scipy.optimize import nnls
+
+from .. import config
+from ..errors import InputError, NumericalError
+from ..linalg import null_basis, range_basis
+from ..model.problem import StaticsProblem
+from .lp import bounds_list, eq_system, solve_lp, unit_problem
+
+
+@dataclass
+class DistanceResult:
+    """Euclidean distance from a force vector x to S.
+
+    absolute = ||nearest - x||_2 [F0]; relative = absolute / (<Fn> sqrt(m)) with
+    <Fn> = problem.force_scale and m the number of unknown contacts, i.e. the
+    rms per-contact distance in units of the mean normal force.
+    nearest (2m,) is the exact projection (verified KKT point); kkt_residual
+    and max_violation (relative to <Fn>) report the verification.
+    """
+
+    absolute: float
+    relative: float
+    nearest: np.ndarray
+    max_violation: float
+    kkt_residual: float
+    method: str
+
+
+def _ldp_projection(problem: StaticsProblem, xhat):
+    """Euclidean projection of xhat onto S by least-distance programming.
+
+    Null-space coordinates x = xa + N y (N orthonormal basis of {A x = 0,
+    fixed columns = 0}) turn the projection into: nearest point to
+    y* = N^T (xhat - xa) of the polytope {M y <= u}, M = G N, u = -G xa.
+    With z = y - y*: min ||z|| s.t. E z >= f, E = -M, f = M y* - u, solved by
+    the Lawson-Hanson LDP algorithm: NNLS on [E^T; f^T] v ~ (0, ..., 0, 1),
+    z = -r[:d] / r[d] with r the NNLS residual (a finite active-set method).
+
+    Returns (x (2m,), active (k,) int, kkt): the projection, the rows of
+    ``problem.inequalities()`` with a positive NNLS multiplier (the active set
+    the polish starts from) and the KKT stationarity residual of the reduced
+    problem (:func:`_reduced_kkt`), which needs no rank decision on the
+    equalities.
+    """
+    G, _, _ = problem.inequalities()
+    Eq, rhs = eq_system(problem)
+    Ed = Eq.toarray()
+    xa = sla.lstsq(Ed, rhs, lapack_driver="gelsd")[0]
+    N = null_basis(Ed)
+    d = N.shape[1]
+    if d == 0:
+        return xa, np.zeros(0, dtype=np.int64), 0.0
+    M = np.asarray(G @ N)
+    u = -np.asarray(G @ xa)
+    ystar = N.T @ (np.asarray(xhat, float) - xa)
+    scale = max(problem.force_scale, 1e-300)
+    E = -M
+    f = (M @ ystar - u) / scale                       # work in units of <Fn>
+    Ep = np.vstack([E.T, f[None, :]])
+    e = np.zeros(d + 1)
+    e[-1] = 1.0
+    v, _ = nnls(Ep, e, maxiter=50 * Ep.shape[1])
+    r = Ep @ v - e
+    if abs(r[-1]) < 1e-14:
+        raise NumericalError("projection: the constraints look infeasible (LDP)")
+    z = -r[:d] / r[-1] * scale
+    return xa + N @ (ystar + z), np.flatnonzero(v > 0), _reduced_kkt(M, u, ystar + z, z, scale)
+
+
+def _reduced_kkt(M, u, y, z, scale) -> float:
+    """KKT stationarity residual of min ||y - y*|| s.t. M y <= u at y = y* + z: with
+    the rows tight to 1e-9 <Fn>, NNLS for lam >= 0 in z = -M_act^T lam; the residual
+    relative to max(|z|, <Fn>). inf if y is infeasible by more than 1e-9 <Fn>."""
+    slack = M @ y - u
+    if slack.max(initial=0.0) > 1e-9 * scale:
+        return float("inf")
+    act = np.flatnonzero(slack > -1e-9 * scale)
+    if act.size == 0:
+        return float(np.linalg.norm(z)) / max(float(np.linalg.norm(z)), scale)
+    Mt = M[act].T
+    colscale = np.maximum(np.linalg.norm(Mt, axis=0), 1e-300)
+    _, res = nnls(Mt / colscale, -z, maxiter=50 * act.size)
+    return float(res) / max(float(np.linalg.norm(z)), scale)
+
+
+def eq_projection(xhat, Ceq, ceq, Gact):
+    """Exact projection of xhat onto {Ceq x = ceq, Gact x = 0} (minimum-norm step), twice refined."""
+    C = np.vstack([Ceq, Gact])
+    c = np.concatenate([ceq, np.zeros(Gact.shape[0])])
+    # cond: rows that are dependent up to round-off (e.g. both Coulomb rows and
+    # a balance row through one contact) must not be amplified into big steps
+    xn = xhat - sla.lstsq(C, C @ xhat - c, cond=1e-11, lapack_driver="gelsd")[0]
+    return xn - sla.lstsq(C, C @ xn - c, cond=1e-11, lapack_driver="gelsd")[0]
+
+
+def _multipliers(Q, Gact, rhs):
+    """Inequality multipliers lam >= 0 with rhs = Ceq^T mu + Gact^T lam (mu free).
+
+    Q (2m, r): orthonormal basis of range(Ceq^T); the equality part is removed
+    by projecting onto its complement, then NNLS. Returns (lam (k,), residual
+    norm, unconstrained least-squares lam (k,)).
+    """
+    P = lambda v: v - Q @ (Q.T @ v)  # noqa: E731
+    Bt = P(Gact.T) if Gact.shape[0] else np.zeros((rhs.size, 0))
+    br = P(rhs)
+    if Bt.shape[1] == 0:
+        return np.zeros(0), float(np.linalg.norm(br)), np.zeros(0)
+    colscale = np.maximum(np.linalg.norm(Bt, axis=0), 1e-300)
+    lam, res = nnls(Bt / colscale, br, maxiter=50 * Bt.shape[1])
+    free = sla.lstsq(Bt / colscale, br, cond=1e-11, lapack_driver="gelsd")[0]
+    return lam / colscale, float(res), free / colscale
+
+
+def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 60, active=None):
+    """Exact active-set refinement and KKT verification of an approximate projection ``x``.
+
+    Start from the active set ``active`` (rows of ``problem.inequalities()``;
+    default: rows tight at x to 1e-7 <Fn>). Each round solves the
+    equality-constrained projection exactly (SVD least squares), checks primal
+    feasibility (adds violated rows) and then the multipliers: NNLS for
+    lam >= 0 after projecting out the (free) equality multipliers; KKT
+    stationarity residual <= 1e-9 (relative to max(|xhat - x|, <Fn>)) accepts.
+    Otherwise the row with the most negative unconstrained multiplier is
+    dropped. An empty active set has nothing to drop: the equality projection
+    is then the answer iff its (equality-only) residual passes. Returns
+    (x, kkt_residual, ok).
+    """
+    G, _, _ = problem.inequalities()
+    Gd = G.toarray()
+    Eq, ceq = eq_system(problem)
+    Ceq = Eq.toarray()
+    Q = range_basis(Ceq)
+    scale = problem.force_scale
+    if active is None:
+        act = np.flatnonzero(G @ x > -config.ACTIVE_TOL * scale)
+    else:
+        act = np.unique(np.asarray(active, dtype=np.int64))
+    best = (x, np.inf, False)
+    seen = set()
+    for _ in range(max_iter):
+        key = act.tobytes()
+        if key in seen:                      # cycling: stop with the best verified so far
+            break
+        seen.add(key)
+        xn = eq_projection(xhat, Ceq, ceq, Gd[act])
+        gx = Gd @ xn
+        if gx.max(initial=0.0) > config.POLISH_FEASIBLE * scale:
+            act = np.union1d(act, np.flatnonzero(gx > config.POLISH_FEASIBLE * scale))
+            continue
+        rhs = xhat - xn
+        lam, res, free_lam = _multipliers(Q, Gd[act], rhs)
+        kkt = res / max(np.linalg.norm(rhs), scale)
+        if kkt < best[1]:
+            best = (xn, kkt, False)
+        if kkt <= config.KKT_TOL:
+            return xn, kkt, True
+        if act.size == 0:
+            break
+        act = np.delete(act, int(np.argmin(free_lam)))
+    return best
+
+
+def project(problem: StaticsProblem, x) -> DistanceResult:
+    """The verified Euclidean projection of x (2m,) onto S of ``problem``, computed in
+    the problem's own units (:func:`distance_to_S` calls it at <Fn> = 1; a caller that
+    has already scaled its problem, as the selection's weighted one, calls it directly)."""
+    xq, active, kkt_q = _ldp_projection(problem, x)
+    method = "null-space LDP (Lawson-Hanson NNLS) + verified active-set polish"
+    xn, kkt, ok = _polish(problem, x, xq, active=active)
+    if not ok:       # retry from the rows tight at the LDP point
+        xn2, kkt2, ok2 = _polish(problem, x, xq)
+        if ok2 or kkt2 < kkt:
+            xn, kkt, ok = xn2, kkt2, ok2
+    if not ok and kkt_q <= config.KKT_TOL and problem.violation(xq) <= config.SAMPLE_VIOLATION:
+        # the full-space check failed on near-dependent equality rows (rank decision);
+        # the LDP point's own KKT conditions, in null-space coordinates, hold
+        xn, kkt, ok = xq, kkt_q, True
+        method = "null-space LDP (Lawson-Hanson NNLS), KKT verified in null-space coordinates"
+    viol = problem.violation(xn)
+    if not ok or viol > config.SAMPLE_VIOLATION:
+        raise NumericalError(f"projection onto S could not be verified (kkt={kkt:.2e}, "
+                             f"violation={viol:.2e})")
+    d = float(np.linalg.norm(xn - x))
+    rel = d / (problem.force_scale * np.sqrt(problem.n_contacts))
+    return DistanceResult(absolute=d, relative=rel, nearest=xn, max_violation=viol,
+                          kkt_residual=kkt, method=method)
+
+
+def distance_to_S(problem: StaticsProblem, x) -> DistanceResult:
+    """Exact Euclidean distance from ``x`` (2m,) [F0] to S (see :class:`DistanceResult`).
+
+    Method: least-distance programming in the null space of the equalities
+    (Lawson-Hanson via scipy's NNLS, a finite active-set method; HiGHS' QP
+    solver cycled on the degenerate Coulomb apexes and was dropped), then an
+    exact active-set polish whose KKT conditions are verified (feasibility to
+    round-off, multipliers >= 0, stationarity residual <= 1e-9). Raises
+    NumericalError if the verification fails, InputError for a wrong-shaped or
+    non-finite x, and refuses an infeasible S.
+    """
+    x = np.asarray(x, float)
+    if x.shape != (problem.n_columns,) or not np.all(np.isfinite(x)):
+        raise InputError("distance_to_S", "x", f"must be a finite vector of shape "
+                         f"({problem.n_columns},)", got=getattr(x, "shape", None))
+    P, s = unit_problem(problem)
+    r = project(P, x / s)
+    return dataclasses.replace(r, absolute=r.absolute * s, nearest=r.nearest * s)
+
+
+def l1_nearest(problem: StaticsProblem, x) -> np.ndarray:
+    """The network of S nearest to x (2m,) in the L1 norm [F0]: one LP at <Fn> = 1
+    (min sum t, -t <= y - x <= t, y in S), exact where the Euclidean projection's
+    verification fails on ill-conditioned slices. NumericalError if S is empty."""
+    P, s = unit_problem(problem)
+    G, _, _ = P.inequalities()
+    m2 = P.n_columns
+    xs = np.asarray(x, float) / s
+    eye = sp.identity(m2, format="csr")
+    c = np.concatenate([np.zeros(m2), np.ones(m2)])
+    A_ub = sp.vstack([sp.hstack([G, sp.csr_matrix((G.shape[0], m2))]),
+                      sp.hstack([eye, -eye]), sp.hstack([-eye, -eye])]).tocsr()
+    b_ub = np.concatenate([np.zeros(G.shape[0]), xs, -xs])
+    A_eq = sp.hstack([P.A, sp.csr_matrix((P.A.shape[0], m2))]).tocsr()
+    res = solve_lp(c, A_ub, b_ub, A_eq, P.b, bounds_list(*P.bounds()) + [(0, None)] * m2)
+    if res.status != 0:
+        raise NumericalError(f"L1-nearest network of S: LP failed ({res.message})")
+    # HiGHS is feasible to 1e-7 only: move exactly onto the equalities and the rows the
+    # LP left tight (a minimum-norm step of that size; the other rows keep their slack)
+    y = res.x[:m2]
+    Eq, rhs = eq_system(P)
+    Gd = G.toarray()
+    tight = np.flatnonzero(Gd @ y > -1e-6)
+    return eq_projection(y, Eq.toarray(), rhs, Gd[tight]) * s

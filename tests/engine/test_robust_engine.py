@@ -1,0 +1,111 @@
+"""Engine and scenes off the seed-1 path: never jammed without load, never a traceback."""
+import numpy as np
+import pytest
+from paths import QUICK
+
+from ensemble_cases import groove
+from forcespace.cli import main
+from forcespace.engine.protocol import build_packing
+from forcespace.space.force_space import ForceSpace
+from forcespace.model.scene import validate
+from forcespace.model.problem import build_problem, full_problem
+
+
+@pytest.mark.parametrize("kw", [
+    {"disks.n": 20, "box.width": 20.0, "box.initial_packing_fraction": 0.1, "scene.seed": 1},
+    {"disks.n": 20, "box.width": 20.0, "box.initial_packing_fraction": 0.05, "scene.seed": 3},
+])
+def test_a_plate_that_has_not_reached_the_disks_is_not_jammed(kw):
+    # the rest test once saw no loaded disk in the first window and declared the loose
+    # start jammed with 0 contacts
+    p = build_packing(validate(kw, "loose"), show_progress=False)
+    top = p.b == -2
+    assert top.any() and p.fn[top].sum() == pytest.approx(p.top_force, rel=1e-9)
+    live = p.force_bearing()
+    rat = p.rattlers()
+    assert p.equilibrium_residual() <= 1e-10
+    # frictionless and isostatic: force-bearing contacts = 2 x non-rattlers
+    assert live.sum() == 2 * (~rat).sum()
+
+
+def test_a_loaded_disk_with_two_contacts_is_not_a_rattler():
+    # frictionless disk in a groove under gravity: 2 contacts, each carrying W / (2 cos th);
+    # the "< 3 contacts" rule called it a rattler and dropped its load from S
+    th = np.pi / 6
+    p, _ = groove(th, 0.0)
+    assert not p.rattlers()[0]
+    prob = build_problem(p, np.arange(3) == 0, (), "groove", support_mask=np.arange(3) > 0)
+    an = ForceSpace(ranges=True).compute(prob)
+    assert an.feasible and an.dim == 0
+    W = p.mass[0] * p.gravity
+    assert an.centre[0::2] == pytest.approx([W / (2 * np.cos(th))] * 2, rel=1e-9)
+    # a disk touching others with no force at all is a rattler, whatever its contact count
+    q = p.with_forces(np.zeros_like(p.fn), np.zeros_like(p.ft))
+    assert q.rattlers().all()
+
+
+def test_frictionless_gravity_layer_keeps_every_loaded_disk(tmp_path):
+    sc = validate({"disks.n": 16, "box.width": 12.0, "box.periodic_x": False,
+                   "physics.gravity": 1.0, "plates.top": "none", "solver.dt": 0.05,
+                   "disks.radius_max": 1.5}, "layer")
+    p = build_packing(sc, show_progress=False)
+    rat = p.rattlers()
+    assert not rat.any()                  # under gravity every disk bears its weight
+    prob = full_problem(p)
+    assert prob.n_interior == p.n_disks
+    assert prob.violation(prob.x_jammed) <= 1e-8
+    assert ForceSpace(ranges=False).compute(prob).feasible
+
+
+def test_rerun_after_max_steps_reports_again_instead_of_crashing(tmp_path, capsys):
+    scene = tmp_path / "s.toml"
+    scene.write_text("[disks]\nn = 20\n[box]\nwidth = 20.0\n[jamming]\nmax_steps = 200\n")
+    out = tmp_path / "p.h5"
+    for _ in range(2):      # the second run resumes from the checkpoint at max_steps
+        assert main(["pack", str(scene), "-o", str(out), "--quiet"]) == 3
+        err = capsys.readouterr().err
+        assert "not jammed after jamming.max_steps = 200" in err and "Traceback" not in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("text, field, allowed", [
+    (b"\x88\x00\xff binary", "(file)", "not a UTF-8 text file"),
+])
+def test_binary_scene_is_one_clear_error(tmp_path, capsys, text, field, allowed):
+    scene = tmp_path / "s.toml"
+    scene.write_bytes(text)
+    assert main(["pack", str(scene), "-o", str(tmp_path / "p.h5")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and field in err[0] and allowed in err[0] and str(scene) in err[0]
+
+
+@pytest.mark.parametrize("args, field", [
+    (["--seed", str(2**70)], "scene.seed"), (["--n", str(10**12)], "disks.n"),
+])
+def test_absurd_overrides_are_refused_before_any_work(tmp_path, capsys, args, field):
+    quick = QUICK
+    assert main(["pack", str(quick), "-o", str(tmp_path / "p.h5"), *args]) == 2
+    err = capsys.readouterr().err
+    assert field in err and "must be an integer in" in err
+
+
+@pytest.mark.parametrize("section, line, field", [
+    ("disks", "radius_max = 1e300", "disks.radius_max"),
+    ("solver", "dt = 1e7", "solver.dt"),
+    ("physics", "mu = nan", "physics.mu"),
+    ("solver", "relaxation = 2.0", "solver.relaxation"),   # SOR diverges from omega = 2 on
+    ("solver", "sweep_block = -1", "solver.sweep_block"),
+])
+def test_overflowing_scene_values_are_refused(tmp_path, capsys, section, line, field):
+    scene = tmp_path / "s.toml"
+    scene.write_text(f"[{section}]\n{line}\n")
+    assert main(["pack", str(scene), "-o", str(tmp_path / "p.h5")]) == 2
+    assert field in capsys.readouterr().err
+
+
+def test_a_time_step_far_too_large_is_a_clear_non_convergence(tmp_path, capsys):
+    scene = tmp_path / "s.toml"
+    scene.write_text("[disks]\nn = 20\n[box]\nwidth = 20.0\n[solver]\ndt = 1e6\n")
+    assert main(["pack", str(scene), "-o", str(tmp_path / "p.h5"), "--quiet"]) == 3
+    err = capsys.readouterr().err
+    assert "solver.dt" in err and "reduce" in err and "Traceback" not in err

@@ -1,0 +1,161 @@
+"""Samplers off the seed-1 path: stalls, the plate problem, lost samples, bad options."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ensemble_cases import grooves, pyramid
+from forcespace import ensemble_file as ef
+from forcespace import hit_and_run as har
+from forcespace import relax_sampler as rs
+from forcespace.cli import main
+from forcespace.errors import InputError, NumericalError
+from forcespace.io.packing_file import write_packing
+from forcespace.model.problem import full_problem, plate_problem
+
+THETAS, MU = [np.pi / 6, np.pi / 5], 0.3
+
+
+@pytest.fixture(scope="module")
+def frictional_plate_packing():
+    from forcespace.engine.protocol import build_packing
+    from forcespace.model.scene import load_scene
+    scene = load_scene("quick")
+    return build_packing(scene.with_overrides(**{"disks.n": 20, "physics.mu": 0.3}),
+                         show_progress=False)
+
+
+def _in_S(prob, X, tol=1e-9):
+    assert max(prob.violation(x) for x in X) <= tol
+
+
+def test_a_stalled_relaxation_is_finished_by_the_projection_and_counted(tmp_path):
+    # a pyramid on a floor is a mechanism: after kicks Gauss-Seidel settles on a sliding
+    # (non-static) solution; the walk used to abort there, losing its samples
+    _, prob = pyramid(3, 0.6)
+    out = tmp_path / "r.h5"
+    res = rs.sample(prob, 12, out, seed=2)
+    ens = ef.read(out)
+    assert ens.n_samples == 12 and res["max_violation"] <= 1e-9
+    _in_S(prob, ens.samples)
+    projected = ens.checkpoint["projected"]
+    assert res["n_projected"] == projected.size >= 1
+    assert set(projected.tolist()) <= set(range(12))
+
+
+def test_relax_walk_on_the_plate_problem_balances_the_plate(frictional_plate_packing, tmp_path):
+    # the plate's balance row (sum of TOP fn = top_force) was in A, b but not in the
+    # solver's copy, which held the plate fixed: every relaxation stalled
+    p = frictional_plate_packing
+    prob = plate_problem(p)
+    top = np.flatnonzero(np.asarray(p.b)[prob.contacts] == -2)
+    assert top.size >= 1
+    res = rs.sample(prob, 10, tmp_path / "plate.h5", seed=1)
+    X = ef.read(tmp_path / "plate.h5").samples
+    _in_S(prob, X)
+    assert res["n_projected"] == 0             # relaxed by NLGS itself, not projected
+    assert X[:, 2 * top].sum(axis=1) == pytest.approx(p.top_force, rel=1e-8)
+    assert np.ptp(X[:, 2 * top], axis=0).max() > 1e-3 * prob.force_scale  # plate forces move
+
+
+def test_finished_samples_survive_an_error_in_the_walk(tmp_path, monkeypatch):
+    _, prob = grooves(THETAS, MU)
+    out = tmp_path / "r.h5"
+    calls = {"n": 0}
+    real_kick = rs.kick
+
+    def failing_kick(*args):
+        calls["n"] += 1
+        if calls["n"] == 8:
+            raise NumericalError("simulated failure in sample 7")
+        return real_kick(*args)
+
+    monkeypatch.setattr(rs, "kick", failing_kick)
+    with pytest.raises(NumericalError, match="simulated"):
+        rs.sample(prob, 20, out, seed=4, checkpoint_every=5)
+    assert ef.read(out).n_samples == 7          # not 5: the two past the checkpoint are kept
+    monkeypatch.setattr(rs, "kick", real_kick)
+    rs.sample(prob, 20, out, seed=4, checkpoint_every=5)   # and the walk resumes after them
+    full = tmp_path / "full.h5"
+    rs.sample(prob, 20, full, seed=4, checkpoint_every=5)
+    assert np.array_equal(ef.read(out).samples, ef.read(full).samples)
+
+
+@pytest.mark.parametrize("kw, field", [
+    (dict(n=0), "n"), (dict(n=5, tol=float("inf")), "tol"), (dict(n=5, tol=float("nan")), "tol"),
+    (dict(n=5, tol=0.0), "tol"), (dict(n=5, checkpoint_every=0), "checkpoint_every")])
+def test_relax_options_are_refused_before_any_work(tmp_path, kw, field):
+    _, prob = grooves(THETAS, MU)
+    with pytest.raises(InputError, match=field):
+        rs.sample(prob, out=tmp_path / "r.h5", **kw)
+    assert not (tmp_path / "r.h5").exists()
+
+
+@pytest.mark.parametrize("kw, field", [
+    (dict(chains=0), "chains"), (dict(thin=0, burn_in=0), "thin"), (dict(burn_in=-1), "burn_in"),
+    (dict(direction="diagonal"), "direction")])
+def test_hit_and_run_options_are_refused_before_any_work(tmp_path, kw, field):
+    _, prob = grooves(THETAS, MU)
+    with pytest.raises(InputError, match=field):
+        har.sample(prob, 5, tmp_path / "h.h5", **kw)
+    assert not (tmp_path / "h.h5").exists()
+
+
+def test_cli_sample_options_exit_2_with_one_line(tmp_path, capsys):
+    p, _ = pyramid(3, 0.6)
+    write_packing(p, tmp_path / "p.h5")
+    base = ["sample", str(tmp_path / "p.h5"), "--full", "-n", "5", "-o", str(tmp_path / "e.h5"),
+            "--quiet"]
+    for extra in (["--sampler", "hit-and-run", "--chains", "0"],
+                  ["--sampler", "hit-and-run", "--thin", "0", "--burn-in", "0"],
+                  ["--sampler", "relax", "--tol", "inf"]):
+        assert main(base + extra) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "must be" in err[0]
+    assert not (tmp_path / "e.h5").exists()
+
+
+def test_relax_on_a_problem_without_unknown_contacts_is_refused(tmp_path):
+    p, _ = pyramid(3, 0.6)
+    prob = full_problem(p)
+    from dataclasses import replace
+    empty = replace(prob, contacts=prob.contacts[:0])
+    with pytest.raises(InputError, match="no unknown contact"):
+        rs.sample(empty, 5, tmp_path / "r.h5")
+
+
+def test_ensemble_of_a_point_like_S_reports_no_ratio_of_round_off(tmp_path):
+    def ensemble_summary(path):
+        return ef.read(path).summary()
+    _, prob = grooves(THETAS, 0.0)                  # frictionless grooves: dim S = 0
+    rs.sample(prob, 10, tmp_path / "r.h5", seed=1)
+    out = ensemble_summary(tmp_path / "r.h5")
+    assert out["eta"] < 1e-8                         # the solver floor
+    assert out["jammed_distance_over_mean"] is None  # was a ratio of round-off (e.g. 8382)
+    assert "numerically a point" in out["jammed_distance_over_mean_reason"]
+    _, prob = grooves(THETAS, MU)                    # dim S = 2: a real ratio
+    rs.sample(prob, 10, tmp_path / "r2.h5", seed=1)
+    out = ensemble_summary(tmp_path / "r2.h5")
+    assert 0 < out["jammed_distance_over_mean"] < 10
+
+
+def test_hit_and_run_keeps_finished_samples_on_an_error(tmp_path, monkeypatch):
+    _, prob = grooves(THETAS, MU)
+    out = tmp_path / "h.h5"
+    real = har.har_steps
+    calls = {"n": 0}
+
+    def failing(*args):
+        calls["n"] += 1
+        if calls["n"] == 4 + 8:            # 4 burn-ins, then the 8th sample fails
+            raise NumericalError("simulated failure")
+        return real(*args)
+
+    monkeypatch.setattr(har, "har_steps", failing)
+    with pytest.raises(NumericalError, match="simulated"):
+        har.sample(prob, 20, out, seed=3, checkpoint_every=5)
+    assert ef.read(out).n_samples == 7
+    monkeypatch.setattr(har, "har_steps", real)
+    har.sample(prob, 20, out, seed=3, checkpoint_every=5)   # resumes from the last good state
+    X = ef.read(out).samples
+    assert X.shape[0] == 20 and max(prob.violation(x) for x in X) <= har.MAX_VIOLATION

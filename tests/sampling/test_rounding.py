@@ -1,0 +1,73 @@
+"""Rounding ellipsoids: the exact MVE (interior point) and its Lewis-weight
+approximation (john_ellipsoid) against hand-derived ellipsoids and each other."""
+import numpy as np
+import pytest
+
+from forcespace.errors import InputError
+from forcespace.sampling.rounding import john_ellipsoid, mve, mve_rounding
+
+
+def _log_volume(E2):
+    return 0.5 * np.linalg.slogdet(E2)[1]
+
+
+def _inscribed(H, s, c, E2):
+    """max_i |E2^{1/2} h_i| / (s_i - h_i c): <= 1 iff the ellipsoid is inside."""
+    return float((np.sqrt(((H @ E2) * H).sum(1)) / (s - H @ c)).max())
+
+
+@pytest.mark.parametrize("solver", [mve, john_ellipsoid])
+def test_box_gives_its_axis_aligned_ellipse(solver):
+    """Box |y_j| <= a_j, started off-centre: the MVE is centred, semi-axes a_j."""
+    a = np.array([1.0, 3.0, 0.2, 7.0])
+    H = np.vstack([np.eye(4), -np.eye(4)])
+    s = np.r_[a, a]
+    c, E2, ok, _ = solver(H, s, 0.3 * a)
+    assert ok
+    assert np.abs(c / a).max() < 1e-3               # centred to the solvers' tolerance
+    assert np.allclose(E2, np.diag(a ** 2), rtol=0.05, atol=1e-3 * a.min() ** 2)
+
+
+@pytest.mark.parametrize("d", [2, 5, 12])
+def test_simplex_is_rounded_exactly_by_both(d):
+    """Simplex {y >= 0, sum y <= 1}: the MVE is centred at 1/(d+1); the
+    approximation must agree with the interior point (affine image of a regular
+    simplex: equal Lewis weights are John's fixed point)."""
+    H = np.vstack([-np.eye(d), np.ones((1, d))])
+    s = np.r_[np.zeros(d), 1.0]
+    y0 = np.full(d, 0.5 / d)
+    c1, E1, ok1, _ = mve(H, s, y0)
+    c2, E2, ok2, _ = john_ellipsoid(H, s, y0)
+    assert ok1 and ok2
+    assert np.allclose(c2, 1.0 / (d + 1), rtol=1e-3)
+    assert np.allclose(c1, c2, rtol=1e-3)
+    assert abs(_log_volume(E2) - _log_volume(E1)) / d < 1e-3
+    assert _inscribed(H, s, c2, E2) <= 1 + 1e-9
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("shape", [(6, 40), (25, 300)])
+def test_john_ellipsoid_is_inscribed_and_near_the_mve(seed, shape):
+    """Random polytopes with row norms spread over 10x and an anisotropic axis
+    scale (1 to 1e3): the approximation lies inside, is no larger than the MVE,
+    and its axes are within a few per cent of the MVE's (geometric mean)."""
+    d, p = shape
+    rng = np.random.default_rng(seed)
+    H = rng.normal(size=(p, d)) * (1 + 9 * rng.random((p, 1)))
+    H = H @ np.diag(np.logspace(0, 3, d))
+    s = 1 + 3 * rng.random(p)
+    c1, E1, ok1, _ = mve(H, s, np.zeros(d))
+    c2, E2, ok2, _ = john_ellipsoid(H, s, np.zeros(d))
+    assert ok1 and ok2
+    assert _inscribed(H, s, c2, E2) <= 1 + 1e-9
+    gap = (_log_volume(E2) - _log_volume(E1)) / d
+    assert -0.05 <= gap <= 1e-6
+
+
+def test_rounding_refuses_an_exterior_start_and_an_unknown_method():
+    H = np.vstack([np.eye(2), -np.eye(2)])
+    s = np.ones(4)
+    with pytest.raises(InputError, match="strictly inside"):
+        john_ellipsoid(H, s, np.array([1.0, 0.0]))
+    with pytest.raises(InputError, match="method"):
+        mve_rounding(H, s, np.zeros(2), method="covariance")

@@ -1,0 +1,159 @@
+"""Both samplers: every sample in S, extremes reach the LP ranges, uniformity, resume, refusal."""
+import numpy as np
+import pytest
+from scipy import stats
+
+from ensemble_cases import groove_interval, grooves, lattice_in_box, lattice_rows
+from forcespace import ensemble_file as ef
+from forcespace import hit_and_run as har
+from forcespace import relax_sampler as rs
+from forcespace.errors import InputError
+from forcespace.space.force_space import ForceSpace
+
+THETAS, MU = [np.pi / 6, np.pi / 5], 0.3
+
+
+def _in_S(prob, X, tol):
+    G, _, _ = prob.inequalities()
+    for x in X:
+        assert np.abs(prob.A @ x - prob.b).max() <= tol * prob.force_scale
+        assert (G @ x).max() <= tol * prob.force_scale          # Coulomb (implies fn >= 0)
+        assert x[0::2].min() >= -tol * prob.force_scale
+
+
+@pytest.mark.parametrize("max_rows", [har.MVE_MAX_ROWS, 0])
+def test_hit_and_run_is_uniform_on_a_rectangle(tmp_path, monkeypatch, max_rows):
+    """Two independent grooves: S is a rectangle in (s1, s2) (dim 2). Marginals
+    must be uniform, and u1 + u2 triangular (joint uniformity); with either
+    rounding (max_rows 0: the Lewis-weight one of big slices)."""
+    monkeypatch.setattr(har, "MVE_MAX_ROWS", max_rows)
+    _, prob = grooves(THETAS, MU)
+    out = tmp_path / "h.h5"
+    res = har.sample(prob, 600, out, seed=11, thin=20)
+    assert res["params"]["rounding"] == ("john" if max_rows == 0 else "mve")
+    X = ef.read(out).samples
+    assert res["max_violation"] <= har.MAX_VIOLATION
+    _in_S(prob, X, 1e-9)
+    u = []
+    for k, th in enumerate(THETAS):
+        lo, hi = groove_interval(th, MU)
+        u.append((X[:, 4 * k + 1] - lo) / (hi - lo))
+        assert stats.kstest(u[-1], "uniform").pvalue > 0.01
+    z = u[0] + u[1]
+    tri = lambda v: np.where(v <= 1, v**2 / 2, 1 - (2 - v) ** 2 / 2)  # noqa: E731
+    assert stats.kstest(z, tri).pvalue > 0.01
+    assert res["rhat_sqdev"] < 1.1
+
+
+def test_hit_and_run_detects_a_wrong_shape():
+    """The same statistic must reject a non-uniform sample (the test can fail)."""
+    rng = np.random.default_rng(0)
+    u = rng.beta(1.3, 1.0, size=600)                  # mildly non-uniform
+    assert stats.kstest(u, "uniform").pvalue < 0.01
+
+
+@pytest.mark.parametrize("sampler", ["hit-and-run", "relax"])
+def test_samples_in_S_and_extremes_reach_lp_ranges(tmp_path, sampler):
+    _, prob = lattice_rows(4, 2, 0.5)                # dim S = 17
+    an = ForceSpace(ranges=True).compute(prob)
+    assert an.dim == 17
+    out = tmp_path / "e.h5"
+    if sampler == "relax":
+        res = rs.sample(prob, 150, out, seed=1, tol=1e-9)
+        tol = 1e-9
+    else:
+        res = har.sample(prob, 300, out, seed=1)
+        tol = har.MAX_VIOLATION
+    X = ef.read(out).samples
+    assert res["max_violation"] <= tol
+    _in_S(prob, X, tol)
+    lo, hi = an.fn_range[:, 0], an.fn_range[:, 1]
+    # inside the LP ranges, and covering a good part of them
+    assert np.all(X[:, 0::2] >= lo - 1e-9) and np.all(X[:, 0::2] <= hi + 1e-9)
+    cover = (X[:, 0::2].max(0) - X[:, 0::2].min(0)) / (hi - lo)
+    assert np.median(cover) > 0.3
+
+
+def test_relax_reaches_both_ends_of_a_groove(tmp_path):
+    _, prob = grooves(THETAS, MU)
+    an = ForceSpace(ranges=True).compute(prob)
+    out = tmp_path / "r.h5"
+    rs.sample(prob, 200, out, seed=3)
+    X = ef.read(out).samples
+    _in_S(prob, X, 1e-9)
+    w = an.ft_range[:, 1] - an.ft_range[:, 0]
+    assert np.all((X[:, 1::2].min(0) - an.ft_range[:, 0]) / w < 0.02)
+    assert np.all((an.ft_range[:, 1] - X[:, 1::2].max(0)) / w < 0.02)
+
+
+@pytest.mark.parametrize("mod", [har, rs])
+def test_resume_continues_the_same_walk(tmp_path, mod):
+    _, prob = grooves(THETAS, MU)
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    mod.sample(prob, 30, a, seed=5, checkpoint_every=7)
+    mod.sample(prob, 30, b, seed=5, checkpoint_every=7, max_seconds=0.0)   # "killed" early
+    first = ef.read(b).n_samples
+    assert 0 < first < 30
+    mod.sample(prob, 30, b, seed=5, checkpoint_every=7)                    # rerun: continues
+    Xa, Xb = ef.read(a).samples, ef.read(b).samples
+    assert Xb.shape == (30, 8)
+    assert np.array_equal(Xa, Xb)
+
+
+def test_resume_refuses_another_run(tmp_path):
+    _, prob = grooves(THETAS, MU)
+    out = tmp_path / "a.h5"
+    har.sample(prob, 5, out, seed=5)
+    with pytest.raises(InputError, match="another"):
+        har.sample(prob, 10, out, seed=6)
+
+
+@pytest.mark.parametrize("mod", [har, rs])
+def test_unbounded_S_is_never_sampled(tmp_path, mod):
+    _, prob = lattice_in_box(0.3)
+    with pytest.raises(InputError, match="unbounded"):
+        mod.sample(prob, 5, tmp_path / "u.h5")
+    assert not (tmp_path / "u.h5").exists()
+
+
+def test_rows_constant_on_the_affine_hull_are_dropped_from_the_frame(monkeypatch):
+    """A row orthogonal to S's affine hull with a slack of -1e-13 <Fn> (an implicit
+    equality the LP test missed, as on an 800-disk mu = 1 slice) must leave the
+    hit-and-run frame: kept, it stops the rounding."""
+    import scipy.sparse as sp
+
+    _, prob = grooves(THETAS, MU)
+    an = ForceSpace(ranges=False).compute(prob)
+    G, owner, kind = prob.inequalities()
+    i, j = np.flatnonzero(np.abs(prob.b) > 0)[:2]
+    g = prob.b[j] * prob.A[i] - prob.b[i] * prob.A[j]     # g.x = 0 on the affine hull
+    g = g / sp.linalg.norm(g)
+    shift = 1e-13 * prob.force_scale / np.linalg.norm(an.affine_point)
+    row = sp.csr_matrix(g + shift * an.affine_point / np.linalg.norm(an.affine_point))
+    G2 = sp.vstack([G, row]).tocsr()
+    monkeypatch.setattr(prob, "_inequalities", (G2, np.append(owner, 0), np.append(kind, 0)))
+    xc, N, H0, s0, free, _ = har.frame(prob, an)
+    assert G.shape[0] not in free and np.abs(G2[-1] @ N).max() <= har.FLAT_ROW
+    y0, L, _ = har.rounding(H0, s0, prob.force_scale)
+    assert np.all(H0 @ (prob.force_scale * y0) <= s0)    # a strictly interior start
+    monkeypatch.setattr(har, "FLAT_ROW", -1.0)           # keep the row: rounding fails
+    xc, N, H0, s0, free, _ = har.frame(prob, an)
+    assert G.shape[0] in free and s0[-1] < 0
+    with pytest.raises(InputError, match="strictly inside"):
+        har.rounding(H0, s0, prob.force_scale)
+
+
+def test_burn_in_in_chunks_is_the_same_walk(monkeypatch):
+    """The burn-in runs in chunks (for its progress bar): any chunk size that is a
+    multiple of the slack refresh interval (64 at this dim) must leave every chain
+    bit for bit where one call would."""
+    from forcespace.io.h5 import MemoryFile
+
+    _, prob = lattice_rows(4, 2, 0.5)
+    runs = []
+    for chunk in (64, 64 * 3, 10 ** 9):
+        monkeypatch.setattr(har, "BURN_IN_CHUNK", chunk)
+        out = MemoryFile("<chunks>")
+        har.sample(prob, 4, out, seed=5, burn_in=1000)
+        runs.append(ef.read(out).samples)
+    assert np.array_equal(runs[0], runs[2]) and np.array_equal(runs[1], runs[2])

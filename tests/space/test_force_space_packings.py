@@ -1,0 +1,87 @@
+"""S of real (engine-built) packings, the projection polish regression, MVE rounding."""
+import numpy as np
+import pytest
+
+from ensemble_cases import grooves, lattice_rows
+from forcespace import ensemble_file as ef
+from forcespace import hit_and_run as har
+from forcespace import relax_sampler as rs
+from forcespace.measures import eta
+from forcespace.space.projection import _polish, distance_to_S
+from forcespace.space.force_space import ForceSpace
+from forcespace.sampling.rounding import mve
+from forcespace.model.problem import full_problem, plate_problem, slice_problem
+
+
+@pytest.fixture(scope="module")
+def quick_packing():
+    from forcespace.engine.protocol import build_packing
+    from forcespace.model.scene import load_scene
+    from pathlib import Path
+    scene = load_scene("quick")
+    return build_packing(scene.with_overrides(**{"disks.n": 20}), show_progress=False)
+
+
+def test_polish_with_an_empty_active_set_does_not_fail():
+    _, prob = grooves([np.pi / 6, np.pi / 5], 0.3)
+    an = ForceSpace(ranges=True).compute(prob)
+    x = an.centre                                   # interior: nothing active
+    xn, kkt, ok = _polish(prob, x, x, active=[])
+    assert ok and kkt <= 1e-9 and np.linalg.norm(xn - x) < 1e-12 * prob.force_scale
+    # a start whose active set is wrong must not raise either
+    _polish(prob, x + 0.3 * prob.force_scale, x, active=[])
+
+
+@pytest.mark.parametrize("pert", [0.0, 1e-6, 1e-2])
+def test_projection_on_the_plate_balance_problem(quick_packing, pert):
+    prob = plate_problem(quick_packing)
+    rng = np.random.default_rng(1)
+    x = prob.x_jammed + pert * prob.force_scale * rng.normal(size=prob.n_columns)
+    d = distance_to_S(prob, x)
+    assert d.kkt_residual <= 1e-9 and d.max_violation <= 1e-9
+    # no farther than the jammed network (which is in S up to round-off)
+    bound = np.linalg.norm(x - prob.x_jammed) / (prob.force_scale * np.sqrt(prob.n_contacts))
+    assert d.relative <= bound + 1e-8
+
+
+def test_frictionless_jammed_packing_is_determinate(quick_packing, tmp_path):
+    """dim S = 0 for the slice and the full packing; relax eta at the solver floor."""
+    for prob in (slice_problem(quick_packing, 10.0), full_problem(quick_packing)):
+        an = ForceSpace(ranges=False).compute(prob)
+        assert an.feasible and an.bounded
+        assert an.dim == 0, prob.kind
+        # isostatic: the equilibrium equations fix every unknown, S is one point
+        assert an.degree_of_indeterminacy == 0 and an.rank_A == an.n_unknowns
+        assert an.radius == 0.0
+        assert np.linalg.norm(an.centre - prob.x_jammed) <= 1e-8 * prob.force_scale * \
+            np.sqrt(prob.n_contacts)
+    prob = slice_problem(quick_packing, 10.0)
+    out = tmp_path / "r.h5"
+    res = rs.sample(prob, 20, out, seed=0, tol=1e-9)
+    assert res["max_violation"] <= 1e-9
+    assert eta(ef.read(out).samples) <= 1e-8
+
+
+def test_mve_of_a_box_and_of_a_triangle():
+    a = np.array([1.0, 1e-3, 30.0])
+    H = np.vstack([np.eye(3), -np.eye(3)])
+    s = np.concatenate([a, a])
+    c, E2, ok, _ = mve(H, s, np.array([0.5, 0.0, -10.0]))
+    assert ok
+    assert np.allclose(c, 0, atol=1e-6 * a)
+    assert np.allclose(np.sqrt(np.linalg.eigvalsh(E2)), np.sort(a), rtol=1e-5)
+    # equilateral triangle: the MVE is the incircle (radius 1 about the origin)
+    ang = np.pi / 2 + 2 * np.pi * np.arange(3) / 3
+    H = np.c_[np.cos(ang), np.sin(ang)]
+    c, E2, ok, _ = mve(H, np.ones(3), np.array([0.2, -0.1]))
+    assert ok and np.allclose(c, 0, atol=1e-6) and np.allclose(E2, np.eye(2), atol=1e-5)
+
+
+def test_hit_and_run_mixes_on_a_17_dimensional_S(tmp_path):
+    _, prob = lattice_rows(4, 2, 0.5)
+    res = har.sample(prob, 200, tmp_path / "h.h5", seed=3)
+    assert res["dim_S"] == 17 and res["max_violation"] <= har.MAX_VIOLATION
+    assert res["rhat_sqdev"] < 1.1 and res["rhat_projections_max"] < 1.1
+    assert res["ess_projections_min"] > 50
+    ens = ef.read(tmp_path / "h.h5")
+    assert ens.setup["mve_axis_ratio"][-1] < 6

@@ -1,0 +1,106 @@
+"""The sparse analysis path (frontier sweep, LU circuits, IPM LPs) equals the dense one.
+
+Large problems (>= SWEEP_MIN_COLUMNS columns) take the sparse path; here it is
+forced on the paper packings (and a tiling, the structure of the large
+benchmarks) and compared with the dense path: dimensions exactly, the centre
+radius to 1e-9 <Fn> (each centre holding that ball in S), ranges to 1e-9 <Fn>,
+the varying contacts and the domains identical.
+"""
+import importlib.util
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from forcespace import measures, polytope
+from forcespace.linalg import sweep_null_space
+from forcespace.model.packing import Packing
+from forcespace.model.problem import slice_problem
+from paths import PACKINGS, ROOT
+
+
+def _tile(p, k):
+    spec = importlib.util.spec_from_file_location("bench", ROOT / "studies" / "bench.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    return bench.tile(p, k)
+
+
+def _both(monkeypatch, prob, ranges):
+    """(analysis, domains) by the dense path, then by the sparse path."""
+    out = []
+    for th in (10**9, 0):
+        monkeypatch.setattr(polytope, "SWEEP_MIN_COLUMNS", th)
+        monkeypatch.setattr(measures, "SWEEP_MIN_COLUMNS", th)
+        an = ForceSpace(ranges=ranges).compute(prob)
+        out.append((an, measures.domains(prob, an)))
+    return out
+
+
+def _same(prob, dense, sparse, ranges):
+    (a, da), (b, db) = dense, sparse
+    s = prob.force_scale
+    for name in ("feasible", "bounded", "dim_S", "rank_A", "degree_of_indeterminacy",
+                 "n_sliding", "n_zero"):
+        assert getattr(a, name) == getattr(b, name), name
+    assert np.array_equal(a.implicit_rows, b.implicit_rows)
+    assert abs(a.radius - b.radius) <= 1e-9 * s    # LP tolerance, <Fn> units
+    # the centre LP's optimum need not be unique (the sparse path's interior point may
+    # return another optimal vertex): each centre must lie in S and hold the ball of the
+    # common radius inside S's affine hull
+    G, _, _ = prob.inequalities()
+    for an in (a, b):
+        free = np.setdiff1d(np.arange(G.shape[0]), an.implicit_rows)
+        width = np.linalg.norm(G[free] @ an.affine_basis, axis=1)
+        assert prob.violation(an.centre) <= 1e-9
+        assert np.all(-(G[free] @ an.centre) >= an.radius * width - 1e-9 * s)
+    if ranges:
+        for r1, r2 in ((a.fn_range, b.fn_range), (a.ft_range, b.ft_range)):
+            assert np.nanmax(np.abs(r1 - r2)) <= 1e-9 * s
+    assert np.array_equal(a.varying, b.varying)
+    assert sorted((tuple(d.contacts), d.dim) for d in da) == \
+        sorted((tuple(d.contacts), d.dim) for d in db)
+    if a.dim:   # the same affine hull (another orthonormal basis of it)
+        N1, N2 = a.affine_basis, b.affine_basis
+        assert np.linalg.norm(N1 @ (N1.T @ N2) - N2) < 1e-10
+        assert np.abs(N2.T @ N2 - np.eye(N2.shape[1])).max() < 1e-12
+        # both affine points lie in the same hull: their difference is along N
+        assert np.abs((np.eye(N1.shape[0]) - N1 @ N1.T) @ (b.affine_point - a.affine_point)
+                      ).max() < 1e-9 * s
+
+
+@pytest.mark.parametrize("mu,ranges", [("0", True), ("0.01", False), ("0.1", True),
+                                       ("0.5", True)])
+def test_sparse_path_equals_dense_on_paper_packings(monkeypatch, mu, ranges):
+    prob = slice_problem(Packing.load(PACKINGS / f"paper_mu{mu}.h5"), 28.0)
+    _same(prob, *_both(monkeypatch, prob, ranges), ranges)
+
+
+def test_sparse_path_equals_dense_on_a_tiling(monkeypatch):
+    prob = slice_problem(_tile(Packing.load(PACKINGS / "paper_mu0.1.h5"), 3), 28.0)
+    _same(prob, *_both(monkeypatch, prob, False), False)
+
+
+def test_sweep_null_space_matches_svd():
+    # banded sparse matrix with dependent rows and an empty column
+    rng = np.random.default_rng(3)
+    r, n = 120, 150
+    M = sp.random(r, n, density=0.0, random_state=1).tolil()
+    for i in range(r):
+        for j in range(max(0, i - 3), min(n - 1, i + 4)):
+            M[i, j] = rng.normal()
+    M[50] = M[10] + 2 * M[11]           # dependent rows
+    M[:, 140] = 0.0                     # a column in no row
+    M = M.tocsr()
+    rhs = M @ rng.normal(size=n) + 1e-3 * rng.normal(size=r)
+    res = sweep_null_space(M, rhs, chunk=7)
+    Md = M.toarray()
+    u, s, vt = np.linalg.svd(Md)
+    rank = int((s > 1e-10 * s[0] * max(M.shape)).sum())
+    assert res.rank == rank and res.basis.shape == (n, n - rank)
+    N = res.basis
+    assert np.abs(N.T @ N - np.eye(n - rank)).max() < 1e-12
+    assert np.abs(Md @ N).max() < 1e-12
+    step = vt[:rank].T @ ((u[:, :rank].T @ rhs) / s[:rank])
+    assert np.abs(res.step - step).max() < 1e-10
+    assert sweep_null_space(M, basis=False, chunk=5).rank == rank
