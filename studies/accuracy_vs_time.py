@@ -202,7 +202,7 @@ def _load(name):
     """(packing, its plate S) of studies/packings/NAME.h5."""
     from forcespace.model.packing import Packing
     from forcespace.model.problem import plate_problem
-    p = Packing.load(HERE / "packings" / f"{name}.h5")
+    p = read_packing(HERE / "packings" / f"{name}.h5")
     return p, plate_problem(p)
 
 
@@ -284,7 +284,7 @@ def contact_iteration_rates(p, mu, iterations=100, repeats=5, work=6e5) -> dict:
 
 def per_iteration_study(cfg) -> list:
     from forcespace.model.packing import Packing
-    p = Packing.load(HERE / "packings" / "paper_mu0.1.h5")
+    p = read_packing(HERE / "packings" / "paper_mu0.1.h5")
     return [contact_iteration_rates(tile(p, k) if k > 1 else p, mu, repeats=cfg["repeats"])
             for k in cfg["tiles"] for mu in (0.0, 0.1)]
 

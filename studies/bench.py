@@ -156,7 +156,7 @@ def scaling(p: Packing, tiles=(1, 5, 10, 25), sample_tiles=(1, 3, 6), height=28.
     (everything here is single threaded); the growth exponent is the slope of
     log CPU time against log n over the largest two sizes.
     """
-    from forcespace import hit_and_run as har
+    from forcespace.sampling.hit_and_run import HitAndRun
     from forcespace.io.h5 import MemoryFile
     from forcespace.space.structure import domains
     from forcespace.space.force_space import ForceSpace
@@ -181,7 +181,7 @@ def scaling(p: Packing, tiles=(1, 5, 10, 25), sample_tiles=(1, 3, 6), height=28.
         if k not in sample_tiles or not an.dim:
             continue
         c0, w0 = clock()
-        res = har.sample(prob, n_samples, MemoryFile("<bench>"), seed=seed, analysis=an)
+        res = HitAndRun(n_samples, seed=seed).compute(prob, output=MemoryFile("<bench>"), analysis=an).summary()
         c1, w1 = clock()
         d = res["dim_S"]
         ess = min(v for v in (res.get("ess_sqdev"), res.get("ess_projections_min"))
@@ -408,7 +408,7 @@ if __name__ == "__main__":
     if sys.argv[1:2] == ["analysis"]:    # bench.py analysis PACKING [k ...]: dense vs sparse
         ks = tuple(int(a) for a in sys.argv[3:]) or (1, 5, 10, 25)
         OUT.mkdir(parents=True, exist_ok=True)
-        table = analysis_scaling(Packing.load(sys.argv[2]), tiles=ks)
+        table = analysis_scaling(read_packing(sys.argv[2]), tiles=ks)
         (OUT / "bench_analysis.json").write_text(json.dumps(table, indent=2))
         print(f"wrote {OUT / 'bench_analysis.json'}")
     elif sys.argv[1:2] == ["scaling"]:
@@ -425,7 +425,7 @@ if __name__ == "__main__":
         st = tuple(int(k) for k in a.sample.split(",")) if a.sample else \
             tuple(k for k in ks if k <= 6)
         OUT.mkdir(parents=True, exist_ok=True)
-        table = scaling(Packing.load(a.packing), tiles=ks, sample_tiles=st, height=a.height)
+        table = scaling(read_packing(a.packing), tiles=ks, sample_tiles=st, height=a.height)
         (OUT / "bench_scaling.json").write_text(json.dumps(table, indent=2))
         print(f"wrote {OUT / 'bench_scaling.json'}")
     else:

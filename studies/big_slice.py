@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 
 from forcespace import Packing, slice_problem
-from forcespace import hit_and_run as har
+from forcespace.sampling.hit_and_run import HitAndRun
 from forcespace.space.structure import domains
 from forcespace.io.h5 import atomic_path
 from forcespace.space.force_space import ForceSpace
@@ -40,7 +40,7 @@ def main():
     out = Path(a.outdir)
     out.mkdir(parents=True, exist_ok=True)
     res = {"packing": Path(a.packing).name, "slice_height": a.height}
-    p = Packing.load(a.packing)
+    p = read_packing(a.packing)
     prob = slice_problem(p, a.height)
     prof = cProfile.Profile()
     prof.enable()
@@ -59,8 +59,7 @@ def main():
     print(json.dumps(res), flush=True)
     d = an.dim
     t, c = time.perf_counter(), time.process_time()
-    summ = har.sample(prob, a.samples, out / "hit_and_run.h5", seed=1, thin=max(1, d * d // 20),
-                      burn_in=d * d, progress=True, analysis=an, checkpoint_every=5)
+    summ = HitAndRun(a.samples, seed=1, thin=max(1, d * d // 20), burn_in=d * d, progress=True, checkpoint_every=5).compute(prob, output=out / "hit_and_run.h5", analysis=an).summary()
     summ["call_wall_s"], summ["call_cpu_s"] = time.perf_counter() - t, time.process_time() - c
     res["hit_and_run"] = summ
     atomic_write_text(out / "big_slice.json", json.dumps(res, indent=1, default=float))

@@ -6,6 +6,7 @@ import pytest
 
 from ensemble_cases import grooves, pyramid
 from forcespace import measures
+from forcespace.space.structure import domains
 from forcespace.errors import InputError
 from forcespace.space.force_space import ForceSpace
 
@@ -26,7 +27,7 @@ def test_eta_by_hand():
 def test_grooves_are_two_elementary_clusters():
     p, prob = grooves([0.4, 0.6, 0.5], 0.2)
     an = ForceSpace(ranges=False).compute(prob)
-    doms = measures.domains(prob, an)
+    doms = domains(prob, an)
     assert len(doms) == 3 and all(d.elementary and d.dim == 1 for d in doms)
     assert sorted(tuple(d.contacts) for d in doms) == [(0, 1), (2, 3), (4, 5)]
     assert sorted(int(d.disks[0]) for d in doms) == [0, 3, 6]
@@ -35,14 +36,14 @@ def test_grooves_are_two_elementary_clusters():
 def test_frictionless_grooves_have_no_domains():
     _, prob = grooves([0.4, 0.6], 0.0)
     an = ForceSpace(ranges=False).compute(prob)
-    assert an.dim == 0 and measures.domains(prob, an) == []
-    assert measures.varying_contacts(an).size == 0
+    assert an.dim == 0 and domains(prob, an) == []
+    assert an.varying_contacts.size == 0
 
 
 def test_pyramid_is_one_domain_with_dim_S():
     _, prob = pyramid(4, 0.5)
     an = ForceSpace(ranges=False).compute(prob)
-    doms = measures.domains(prob, an)
+    doms = domains(prob, an)
     assert sum(d.dim for d in doms) == an.dim == 14
     assert len(doms) == 1 and not doms[0].elementary
 

@@ -23,7 +23,7 @@ The public API (``import forcespace as fs``)::
     Ensemble, read_ensemble(path)     samples of S: .forces (k, m, 2), .eta, diagnostics
     eta(samples)                      the paper's force ambiguity
     distance_from_centre(samples, x0) Fig. 3 distances
-    section(problem, x0, directions)  a 2-D cross-section of S (Fig. 3 inset) -> Section
+    Section(n, seed).compute(problem, x0, directions)   a 2-D cross-section of S (Fig. 3)
     Selection(kt_ratio, kn).compute(problem)   the network elastic springs select in S
     plot_packing, plot_difference     figures on the caller's Axes
     InputError, NumericalError        what the library raises (CLI exit 2 and 3)
@@ -49,8 +49,7 @@ _LAZY = {
     "plate_problem": "model.problem", "StaticsProblem": "model.problem",
     "jam": "engine.protocol",
     "ForceSpace": "space.force_space",
-    "section": "space.section", "Section": "space.section",
-    "select": "space.selection", "Selection": "space.selection",
+    "Section": "space.section", "Selection": "space.selection",
     "HitAndRun": "sampling.hit_and_run", "RelaxWalk": "sampling.relax_walk",
     "Ensemble": "sampling.ensemble",
     "read_packing": "io.packing_file", "write_packing": "io.packing_file",

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import ForcespaceError, InputError
-from .io.h5 import atomic_path
+from .io.jsonfile import write_json
 
 
 BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
@@ -58,10 +58,7 @@ def execute(task: Task, out: str) -> dict:
         result = {"task": task.name, "params": task.params, "ok": False,
                   "error": f"{type(exc).__name__}: {exc}"}
     result["wall_seconds"] = time.perf_counter() - t0
-    from .cli import jsonable
-    path = task.result_path(out)
-    with atomic_path(path) as tmp, open(tmp, "w") as fh:
-        json.dump(jsonable(result), fh, indent=1, allow_nan=False)
+    write_json(task.result_path(out), result)
     return result
 
 

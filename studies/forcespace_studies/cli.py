@@ -24,8 +24,8 @@ def register(sub) -> None:
 
 
 def cmd_study(args) -> int:
-    from forcespace.cli import print_json
     from forcespace.errors import require_int
+    from forcespace.io.jsonfile import dumps
     from forcespace.sweep import done_tasks, run_tasks
 
     from . import STUDIES
@@ -40,5 +40,5 @@ def cmd_study(args) -> int:
     else:
         results = run_tasks(mod.tasks(args.quick), out, workers=args.workers,
                             scheduler=args.scheduler, progress=not args.quiet)
-    print_json(mod.summarize(results, out))
+    print(dumps(mod.summarize(results, out), indent=2))
     return 0

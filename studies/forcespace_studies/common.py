@@ -25,9 +25,6 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
     in the middle of a long jam loses at most half a minute of it.
     Returns (Packing, jam wall time [s] of this call, 0 when it was reused).
     """
-    from .engine.protocol import jam
-    from .model.packing import Packing
-
     name = f"{scene}_n{n_disks}_mu{mu:.6g}_s{seed}.h5"
     for other in reuse_from:
         theirs = Path(out).parent / other / "packings" / name

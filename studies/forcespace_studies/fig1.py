@@ -14,7 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
+import forcespace as fs
 from forcespace.sweep import Task
+
+from .common import shared_packing
 
 QUICK = dict(scene="quick", n_disks=30, slice_height=12.0, mus=(0.01, 0.1, 1.0), seeds=(1, 2),
              samples=12, max_seconds=60.0)
@@ -34,11 +37,11 @@ def tasks(quick: bool = False) -> list[Task]:
     cfg = config(quick)
     common = dict(scene=cfg["scene"], n_disks=cfg["n_disks"], slice_height=cfg["slice_height"],
                   samples=cfg["samples"], max_seconds=cfg["max_seconds"])
-    out = [Task(f"mu{mu:.3g}_s{seed}", "forcespace.studies.fig1:packing_task",
+    out = [Task(f"mu{mu:.3g}_s{seed}", "forcespace_studies.fig1:packing_task",
                 dict(common, mu=mu, seed=seed)) for mu in cfg["mus"] for seed in cfg["seeds"]]
     for seed in cfg["seeds"][:N_SQUARES]:
         for ms in (0.0, *cfg["mus"]):
-            out.append(Task(f"mu0_on{ms:.3g}_s{seed}", "forcespace.studies.fig1:packing_task",
+            out.append(Task(f"mu0_on{ms:.3g}_s{seed}", "forcespace_studies.fig1:packing_task",
                             dict(common, mu=0.0, seed=seed, mu_sample=ms)))
     return out
 
@@ -52,20 +55,14 @@ def packing_task(scene: str, n_disks: int, slice_height: float, samples: int, mu
     the row). A determinate S (dim 0) has eta = 0 exactly for mu > 0; at mu_sample = 0
     the relax walk is run anyway: its eta is the solver's accuracy floor.
     """
-    from .. import HitAndRun
-    from .. import RelaxWalk
-    from .. import slice_problem
-    from forcespace.space.force_space import ForceSpace
-    from forcespace.sweep import shared_packing
-
     wd = Path(workdir)
     p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks)
     rat = p.rattlers()
     live = p.force_bearing() & ((p.a < 0) | ~rat[np.maximum(p.a, 0)]) \
         & ((p.b < 0) | ~rat[np.maximum(p.b, 0)])
-    prob = slice_problem(p, slice_height, mu=mu_sample)
+    prob = fs.slice_problem(p, slice_height, mu=mu_sample)
     t0 = time.perf_counter()
-    an = ForceSpace(ranges=False).compute(prob)
+    an = fs.ForceSpace().compute(prob)
     row = {"mu": mu, "mu_sample": mu if mu_sample is None else mu_sample, "seed": seed,
            "z": p.coordination(), "n_rattlers": int(rat.sum()),
            "nc_full": int(live.sum()), "n_full": int((~rat).sum()),
@@ -80,11 +77,11 @@ def packing_task(scene: str, n_disks: int, slice_height: float, samples: int, mu
     tag = "" if mu_sample is None else f"_mu{mu_sample:.3g}"
     runs = []
     if an.dim:
-        runs.append(("hit_and_run", HitAndRun(n=samples, seed=seed)))
+        runs.append(("hit_and_run", fs.HitAndRun(n=samples, seed=seed)))
     else:
         row["eta_hit_and_run"] = 0.0                  # S is one point: no ambiguity
     if an.dim or row["mu_sample"] == 0:
-        runs.append(("relax", RelaxWalk(n=samples, seed=seed)))
+        runs.append(("relax", fs.RelaxWalk(n=samples, seed=seed)))
     else:
         row["eta_relax"] = 0.0
     run_samplers(row, runs, prob, wd, max_seconds, tag)
@@ -98,15 +95,17 @@ def run_samplers(row: dict, runs, prob, wd, max_seconds, tag: str = "",
     diagnostics (relax: projected stalls; hit-and-run: R-hat, thinning) to ``row``."""
     for name, sampler in runs:
         t0 = time.perf_counter()
-        ens = sampler.run(prob, output=wd / f"{name}{tag}.h5", max_seconds=max_seconds)
+        sampler.max_seconds = max_seconds
+        ens = sampler.compute(prob, output=wd / f"{name}{tag}.h5").ensemble
+        summary = sampler.summary()
         row[f"eta_{name}"] = ens.eta if ens.n_samples >= min_samples else None
         row[f"n_{name}"] = ens.n_samples
         row[f"t_{name}_s"] = time.perf_counter() - t0
         if name == "relax":
-            row["relax_projected"] = sampler.summary.get("n_projected")
+            row["relax_projected"] = summary.get("n_projected")
         else:
-            row["rhat_hit_and_run"] = sampler.summary.get("rhat_projections_max")
-            row["thin_hit_and_run"] = sampler.summary["params"]["thin"]
+            row["rhat_hit_and_run"] = summary.get("rhat_projections_max")
+            row["thin_hit_and_run"] = summary["params"]["thin"]
 
 
 ROW_KEYS = ["task", "mu", "mu_sample", "seed", "z", "n_rattlers", "dim_S",

@@ -19,8 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
+import forcespace as fs
+from forcespace.space.projection import distance_to_S
+from forcespace.space.structure import decompose, extreme_pair
 from forcespace.sweep import Task
+
 from . import fig1
+from .common import shared_packing
 
 REUSE = ("fig1",)
 
@@ -32,16 +37,13 @@ def config(quick: bool) -> dict:
 def tasks(quick: bool = False) -> list[Task]:
     cfg = config(quick)
     common = dict(scene=cfg["scene"], n_disks=cfg["n_disks"], slice_height=cfg["slice_height"])
-    return [Task(f"mu{mu:.3g}_s{seed}", "forcespace.studies.fig2:packing_task",
+    return [Task(f"mu{mu:.3g}_s{seed}", "forcespace_studies.fig2:packing_task",
                  dict(common, mu=mu, seed=seed)) for mu in cfg["mus"] for seed in cfg["seeds"]]
 
 
 def other_loads(packing, seed: int):
     """The packing with the forces of another admissible network of its full S."""
-    from .. import full_problem
-    from forcespace.space.projection import distance_to_S
-
-    full = full_problem(packing)
+    full = fs.full_problem(packing)
     rng = np.random.default_rng(seed)
     kick = rng.uniform(-0.5, 0.5, full.n_columns) * full.force_scale
     kick[full.fixed_columns()] = 0.0
@@ -64,16 +66,11 @@ def domain_sets(problem, dec) -> set:
 
 def packing_task(scene: str, n_disks: int, slice_height: float, mu: float, seed: int,
                  workdir) -> dict:
-    from .. import slice_problem
-    from forcespace.space.structure import decompose
-    from forcespace.space.force_space import ForceSpace
-    from forcespace.sweep import shared_packing
-
     wd = Path(workdir)
     p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks, REUSE)
-    prob = slice_problem(p, slice_height)
+    prob = fs.slice_problem(p, slice_height)
     t0 = time.perf_counter()
-    an = ForceSpace(ranges=False).compute(prob)
+    an = fs.ForceSpace().compute(prob)
     row = {"mu": mu, "seed": seed, "z": p.coordination(), "slice_disks": prob.n_interior,
            "slice_contacts": prob.n_contacts, "feasible": an.feasible, "bounded": an.bounded,
            "dim_S": an.dim, "t_jam_s": t_jam}
@@ -90,8 +87,8 @@ def packing_task(scene: str, n_disks: int, slice_height: float, mu: float, seed:
     row["t_clusters_s"] = time.perf_counter() - t0
     # the same clusters under other boundary loads?
     t0 = time.perf_counter()
-    prob2 = slice_problem(other_loads(p, seed), slice_height)
-    an2 = ForceSpace(ranges=False).compute(prob2)
+    prob2 = fs.slice_problem(other_loads(p, seed), slice_height)
+    an2 = fs.ForceSpace().compute(prob2)
     dec2 = decompose(prob2, an2, p) if an2.feasible and an2.dim else None
     row["other_loads"] = {
         "dim_S": an2.dim, "n_domains": len(dec.domains),
@@ -207,17 +204,11 @@ def summarize(results: list[dict], out) -> dict:
 
 
 def _draw_examples(rows, out) -> bool:
-    """fig2.png: the difference networks at mu = 0.1 and 0.5: the committed seed-1 paper
-    packings ``studies/packings/paper_mu*.h5`` where present, else the study's first
-    seed at the mu nearest to 0.1 and 0.5."""
+    """fig2.png: the difference networks of the study's first seed at the mu nearest to
+    0.1 and 0.5."""
     from matplotlib.figure import Figure
 
-    from .. import slice_problem
-    from forcespace.space.structure import decompose, extreme_pair
-    from forcespace.plot import plot_difference, save_figure
-    from forcespace.model.packing import Packing
-    from forcespace.space.force_space import ForceSpace
-    from forcespace.sweep import shared_packing
+    from forcespace.plot import save_figure
 
     cand = [r for r in rows if r.get("dim_S")]
     if not cand:
@@ -226,18 +217,12 @@ def _draw_examples(rows, out) -> bool:
     for ax, target in zip(fig.subplots(1, 2), (0.1, 0.5)):
         r = min(cand, key=lambda r: (abs(np.log(r["mu"] / target)), r["seed"]))
         par = r["params"]
-        paper = Path(__file__).resolve().parents[3] / "studies" / "packings" / \
-            f"paper_mu{target:g}.h5"
-        if paper.is_file():
-            p = Packing.load(paper)
-            r = {"mu": p.mu, "seed": p.seed}
-        else:
-            p, _ = shared_packing(out, par["scene"], r["mu"], r["seed"], par["n_disks"], REUSE)
-        prob = slice_problem(p, par["slice_height"])
-        an = ForceSpace(ranges=False).compute(prob)
+        p, _ = shared_packing(out, par["scene"], r["mu"], r["seed"], par["n_disks"], REUSE)
+        prob = fs.slice_problem(p, par["slice_height"])
+        an = fs.ForceSpace().compute(prob)
         dec = decompose(prob, an, p)
         x1, x2 = extreme_pair(prob, an, r["seed"])
-        plot_difference(p, prob, x1, x2, dec.domains, ax=ax, clusters=dec.clusters,
+        fs.plot_difference(p, prob, x1, x2, dec.domains, ax=ax, clusters=dec.clusters,
                         title=f"mu = {r['mu']:.3g} (seed {r['seed']}): dim S = {an.dim}, "
                               f"{dec.n_elementary} elementary")
     fig.tight_layout()

@@ -25,7 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
+import forcespace as fs
 from forcespace.sweep import Task
+
+from .common import shared_packing
 
 QUICK = dict(scene="quick", n_disks=30, slice_height=12.0, mu=0.01, seeds=(1, 2, 3),
              samples=16, max_seconds=60.0)
@@ -45,7 +48,7 @@ def tasks(quick: bool = False) -> list[Task]:
     cfg = config(quick)
     common = {k: cfg[k] for k in ("scene", "n_disks", "slice_height", "mu", "samples",
                                   "max_seconds")}
-    return [Task(f"mu{cfg['mu']:.3g}_s{seed}", "forcespace.studies.fig3:packing_task",
+    return [Task(f"mu{cfg['mu']:.3g}_s{seed}", "forcespace_studies.fig3:packing_task",
                  dict(common, seed=seed)) for seed in cfg["seeds"]]
 
 
@@ -79,17 +82,10 @@ def ks_statistics(X, Y, columns) -> np.ndarray:
 
 def packing_task(scene: str, n_disks: int, slice_height: float, samples: int, mu: float,
                  seed: int, workdir, max_seconds=None) -> dict:
-    from .. import HitAndRun
-    from .. import RelaxWalk
-    from .. import slice_problem
-    from forcespace.measures import eta
-    from forcespace.space.force_space import ForceSpace
-    from forcespace.sweep import shared_packing
-
     wd = Path(workdir)
     p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks)
-    prob = slice_problem(p, slice_height)
-    an = ForceSpace(ranges=False).compute(prob)
+    prob = fs.slice_problem(p, slice_height)
+    an = fs.ForceSpace().compute(prob)
     row = {"mu": mu, "seed": seed, "z": p.coordination(), "slice_contacts": prob.n_contacts,
            "feasible": an.feasible, "bounded": an.bounded, "dim_S": an.dim,
            "t_jam_s": t_jam, "usable": bool(an.feasible and an.bounded and an.dim >= 2)}
@@ -98,21 +94,23 @@ def packing_task(scene: str, n_disks: int, slice_height: float, samples: int, mu
         return row
     X, t = {}, {}
     for name, sampler, file in (
-            ("hit_and_run", HitAndRun(n=samples, seed=seed), "hit_and_run.h5"),
-            ("null", HitAndRun(n=samples, seed=seed + NULL_SEED_OFFSET), "hit_and_run_null.h5"),
-            ("relax", RelaxWalk(n=samples, seed=seed), "relax.h5")):
+            ("hit_and_run", fs.HitAndRun(n=samples, seed=seed, max_seconds=max_seconds),
+             "hit_and_run.h5"),
+            ("null", fs.HitAndRun(n=samples, seed=seed + NULL_SEED_OFFSET,
+                                  max_seconds=max_seconds), "hit_and_run_null.h5"),
+            ("relax", fs.RelaxWalk(n=samples, seed=seed, max_seconds=max_seconds), "relax.h5")):
         t0 = time.perf_counter()
-        X[name] = sampler.run(prob, output=wd / file, max_seconds=max_seconds).samples
+        X[name] = sampler.compute(prob, output=wd / file).ensemble.samples
         t[name] = time.perf_counter() - t0
         if name == "relax":
-            row["relax_projected"] = sampler.summary.get("n_projected")
+            row["relax_projected"] = int(sampler.projected.size)
     x0 = prob.x_jammed
     centres = {name: X[name].mean(0) for name in SAMPLERS}
     free, slack_x0 = free_slacks(prob, an, x0)
     slack0 = float(slack_x0.min()) if free.size else np.inf
     for a in SAMPLERS:
         row[f"n_{a}"] = int(len(X[a]))
-        row[f"eta_{a}"] = eta(X[a])
+        row[f"eta_{a}"] = fs.eta(X[a])
         row[f"t_{a}_s"] = t[a]
         for b in SAMPLERS:
             rel, rel0 = centre_distances(X[a], centres[b], x0)
@@ -124,7 +122,7 @@ def packing_task(scene: str, n_disks: int, slice_height: float, samples: int, mu
         # how close to S's boundary x0 is, measured against the samples: the fraction of
         # samples nearer to the boundary than x0 (about 0: x0 sits at the edge of S)
         row[f"jammed_slack_rank_{a}"] = float((slack < slack0).mean())
-    row["eta_null"] = eta(X["null"])
+    row["eta_null"] = fs.eta(X["null"])
     _, owner, _ = prob.inequalities()
     tight = free[slack_x0[:, 0] < BOUNDARY_TOL]
     row["jammed_min_slack"] = slack0
@@ -275,13 +273,9 @@ def _closer_verdict(m, p) -> str:
 
 def _section_panel(ax, row, out) -> None:
     """The inset: the cross-section of S through the first packing's jammed network."""
-    from .. import section
-    from .. import slice_problem
-    from forcespace.sweep import shared_packing
-
     par = row["params"]
     p, _ = shared_packing(out, par["scene"], par["mu"], par["seed"], par["n_disks"])
-    sec = section(slice_problem(p, par["slice_height"]), n=121, seed=row["seed"])
+    sec = fs.Section(n=121, seed=row["seed"]).compute(fs.slice_problem(p, par["slice_height"]))
     sec.plot(ax, title=f"cross-section of S, seed {row['seed']} (dim S = {row['dim_S']})")
 
 

@@ -3,10 +3,10 @@
 Tasks: one per (mu, seed): settle a layer under gravity (``inputs/layer.toml``,
 floor friction = disk friction), take its highest disk, find by LP the largest
 downward point force F* its rigid contact network can carry
-(:func:`forcespace.pointforce.max_point_force`), push with F* times
+(:func:`forcespace.space.loads.max_point_force`), push with F* times
 ``OVERLOADS`` in turn (each from the settled state) until the push displaces a
 disk by more than ``DISPLACED`` R, and, as a control, with nothing; the depth
-of the displaced disks is the measure (:mod:`forcespace.pointforce`). The paper reports
+of the displaced disks is the measure (:func:`forcespace.measures.rearrangement_depth`). The paper reports
 the depth smallest near mu = 0.1, where eta peaks.
 """
 from __future__ import annotations
@@ -17,8 +17,15 @@ from pathlib import Path
 
 import numpy as np
 
-from forcespace.engine.push import DISPLACED
+from forcespace import config as fs_config
+from forcespace.engine.push import push
+from forcespace.measures import rearrangement_depth, surface_disk
+from forcespace.space.loads import max_point_force
 from forcespace.sweep import Task
+
+from .common import shared_packing
+
+DISPLACED = fs_config.DISPLACED
 
 QUICK = dict(scene="layer", n_disks=40, width=20.0, mus=(0.1, 1.0), seeds=(1, 2))
 FULL = dict(scene="layer", n_disks=100, width=42.0, mus=(0.01, 0.03, 0.1, 0.3, 1.0),
@@ -32,16 +39,13 @@ def config(quick: bool) -> dict:
 
 def tasks(quick: bool = False) -> list[Task]:
     cfg = config(quick)
-    return [Task(f"mu{mu:.3g}_s{seed}", "forcespace.studies.pointforce:packing_task",
+    return [Task(f"mu{mu:.3g}_s{seed}", "forcespace_studies.pointforce:packing_task",
                  dict(scene=cfg["scene"], n_disks=cfg["n_disks"], width=cfg["width"], mu=mu,
                       seed=seed)) for mu in cfg["mus"] for seed in cfg["seeds"]]
 
 
 def packing_task(scene: str, n_disks: int, width: float, mu: float, seed: int,
                  workdir) -> dict:
-    from forcespace.engine.push import max_point_force, push, rearrangement_depth, surface_disk
-    from forcespace.sweep import shared_packing
-
     wd = Path(workdir)
     p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks,
                               overrides={"physics__plate_mu": mu, "box__width": width})

@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from forcespace.io.h5 import atomic_path, code_version
+from forcespace.io.jsonfile import jsonable
 
 ORDER = ("fig1", "fig3", "fig2", "size", "pointforce", "selection")
 VERDICTS = ("reproduced", "refuted", "not decidable")
@@ -77,8 +78,6 @@ class Verdict:
 def write_section(out, name: str, title: str, text: str, verdicts: list[Verdict],
                   numbers: dict, figures: list[str]) -> Path:
     """Write OUT/verdicts.json for study ``name`` and rebuild OUT/../REPORT.md."""
-    from forcespace.cli import jsonable
-
     out = Path(out)
     doc = {"study": name, "title": title, "text": text,
            "verdicts": [asdict(v) for v in verdicts], "numbers": numbers,

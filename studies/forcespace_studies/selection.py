@@ -32,12 +32,15 @@ inside the task function only: forcespace itself never imports the adapters.
 """
 from __future__ import annotations
 
-import shutil
 from itertools import combinations
 from pathlib import Path
 
 import numpy as np
 
+import forcespace as fs
+from forcespace.space.force_space import chebyshev_centre, implicit_equalities
+from forcespace.space.projection import distance_to_S
+from forcespace.space.selection import packing_overlaps
 from forcespace.sweep import Task
 
 # landed_tol: a LIGGGHTS network counts when it has no contact outside the rigid
@@ -61,7 +64,7 @@ def tasks(quick: bool = False) -> list[Task]:
         # one ratio is the whole answer, the second would repeat it bit for bit
         ratios = list(cfg["kt_ratios"]) if mu > 0 else list(cfg["kt_ratios"])[:1]
         for seed in cfg["seeds"]:
-            out.append(Task(f"mu{mu:g}_s{seed}", "forcespace.studies.selection:landing_task",
+            out.append(Task(f"mu{mu:g}_s{seed}", "forcespace_studies.selection:landing_task",
                             dict(scene=cfg["scene"], n_disks=cfg["n_disks"], mu=mu, seed=seed,
                                  kt_ratios=ratios, K=list(cfg["K"]),
                                  pymunk=list(cfg["pymunk"]), max_steps=cfg["max_steps"],
@@ -70,22 +73,11 @@ def tasks(quick: bool = False) -> list[Task]:
 
 
 def _packing(scene, n_disks, mu, seed, wd: Path):
-    from .. import jam
-    from forcespace.model.packing import Packing
-
     pfile = wd / "packing.h5"
     if pfile.is_file():
-        return Packing.load(pfile), "reused"
-    root = Path(__file__).resolve().parents[3]
-    committed = root / "studies" / "packings" / f"paper_mu{mu:g}.h5"
-    if scene == "paper" and seed == 1 and committed.is_file():
-        p = Packing.load(committed)
-        if p.seed == 1 and p.mu == mu and p.n_disks == n_disks:
-            shutil.copyfile(committed, pfile)
-            return p, f"studies/packings/{committed.name}"
-    p = jam(root / "inputs" / f"{scene}.toml", physics__mu=mu, scene__seed=seed,
-            disks__n=n_disks)
-    p.save(pfile)
+        return fs.read_packing(pfile), "reused"
+    p = fs.jam(scene, physics__mu=mu, scene__seed=seed, disks__n=n_disks)
+    fs.write_packing(p, pfile)
     return p, "jammed"
 
 
@@ -174,15 +166,9 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
     from forcespace_adapters.problem import soft_problem
     from forcespace_adapters.pymunk_sim import PymunkOptions, simulate
 
-    from forcespace.io.packing_file import read_packing, write_packing
-    from forcespace.space.force_space import chebyshev_centre, implicit_equalities
-    from forcespace.space.projection import distance_to_S
-    from forcespace.space.selection import packing_overlaps, select
-    from forcespace.model.problem import plate_problem
-
     wd = Path(workdir)
     p, origin = _packing(scene, n_disks, mu, seed, wd)
-    S = plate_problem(p)
+    S = fs.plate_problem(p)
     scale = S.force_scale
     # the centre only (analyze() would also decide, by LP, which contacts vary)
     imp = implicit_equalities(S)
@@ -207,13 +193,13 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
     it, dt = pymunk
     pfile = wd / "pymunk.h5"
     if pfile.is_file():
-        soft = read_packing(pfile, kind="soft_network")
+        soft = fs.read_packing(pfile, kind="soft_network")
     else:
         soft, info = simulate(soft_prob, PymunkOptions(iterations=int(it), dt=float(dt),
                                                        max_steps=20000))
         soft.meta.update({k: v for k, v in info.items()
                           if isinstance(v, (bool, int, float, str))})
-        write_packing(soft, pfile, kind="soft_network")
+        fs.write_packing(soft, pfile, kind="soft_network")
     x_pym, c_pym = landed(soft)
     base.update({"pym_distance_to_S": c_pym["relative_distance"],
                  "pym_unmatched": c_pym["unmatched_contacts"],
@@ -239,14 +225,14 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
             if c["unmatched_contacts"] == 0 and c["relative_distance"] < landed_tol:
                 lig = (xl, rec)
                 break
-        sel = select(S, kt_ratio=ratio)
+        sel = fs.Selection(kt_ratio=ratio).compute(S)
         xs = {"pym": x_pym, "sel": sel.x, "cd": S.x_jammed, "centre": centre}
         row = dict(base, kt_ratio=ratio, lig_runs=tried, n_sliding_sel=int(sel.sliding_contacts.size))
         if lig is not None:
             xs["lig"] = lig[0]
             row.update({f"lig_{k}": v for k, v in lig[1].items()})
             ov = packing_overlaps(p, S)
-            sov = select(S, kt_ratio=ratio, kn=lig[1]["kn"], overlap=ov)
+            sov = fs.Selection(kt_ratio=ratio, kn=lig[1]["kn"], overlap=ov).compute(S)
             xs["sel_ov"] = sov.x
             row["n_sliding_sel_ov"] = int(sov.sliding_contacts.size)
             # non-associated Coulomb, with the sliding/open sets of LIGGGHTS or of sel_ov

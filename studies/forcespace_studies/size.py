@@ -28,7 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
+import forcespace as fs
+from forcespace.space.structure import ClusterDecomposition, decompose, domains, percolates
 from forcespace.sweep import Task
+
+from .common import shared_packing
+from .fig1 import run_samplers
 
 # seeds: packings per size (seeds 1..k); relax_max_n: largest n sampled by the relax
 # walk too; clusters_max_dim: largest dim S decomposed into elementary clusters (one LP
@@ -63,13 +68,10 @@ def config(quick: bool) -> dict:
 
 
 def scaled_geometry(scene: str, n: int) -> tuple[float, int, dict]:
-    """(slice height, n0, scene overrides) of ``inputs/SCENE.toml`` scaled to
+    """(slice height, n0, scene overrides) of the bundled scene SCENE scaled to
     n disks (:meth:`Scene.scaled_to`: box, slice, plate load and mass, dt, rest
     criterion; the overrides use the study's ``section__key`` spelling)."""
-    from forcespace.model.scene import load_scene
-    from forcespace.sweep import inputs_dir
-
-    base = load_scene(inputs_dir() / f"{scene}.toml")
+    base = fs.load_scene(scene)
     sc, _ = base.scaled_to(n)
     over = {k.replace(".", "__"): sc[k] for k in sc.values
             if k != "disks.n" and sc[k] != base[k]}
@@ -84,7 +86,7 @@ def tasks(quick: bool = False) -> list[Task]:
     for n in sorted(cfg["sizes"], reverse=True):
         for seed in range(1, cfg["seeds"][n] + 1):
             for mu in cfg["mus"]:
-                out.append(Task(f"n{n}_mu{mu:.3g}_s{seed}", "forcespace.studies.size:packing_task",
+                out.append(Task(f"n{n}_mu{mu:.3g}_s{seed}", "forcespace_studies.size:packing_task",
                                 dict(scene=cfg["scene"], n_disks=n, mu=mu, seed=seed,
                                      samples=cfg["samples"], max_seconds=cfg["max_seconds"],
                                      relax=n <= cfg["relax_max_n"],
@@ -96,29 +98,20 @@ def packing_task(scene: str, n_disks: int, mu: float, seed: int, samples: int, w
                  max_seconds=None, relax: bool = True, clusters_max_dim: int = 400) -> dict:
     """Jam (or reuse) the packing (n, mu, seed) in the scaled box, analyse its scaled
     slice, its clusters, and sample it (module docstring)."""
-    from .. import HitAndRun
-    from .. import RelaxWalk
-    from .. import slice_problem
-    from forcespace.space.structure import ClusterDecomposition, decompose, percolates
-    from forcespace.space.structure import domains as find_domains
-    from forcespace.space.force_space import ForceSpace
-    from forcespace.sweep import shared_packing
-    from .fig1 import run_samplers
-
     wd = Path(workdir)
     height, n0, over = scaled_geometry(scene, n_disks)
     p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks,
                               REUSE if n_disks == n0 else (), overrides=over)
     rat = p.rattlers()
-    prob = slice_problem(p, height)
+    prob = fs.slice_problem(p, height)
     t0 = time.perf_counter()
-    an = analyze(prob, ranges=False)
+    an = fs.ForceSpace().compute(prob)
     nc = prob.n_contacts
     row = {"n": n_disks, "mu": mu, "seed": seed, "width": p.width, "slice_height": height,
            "z": p.coordination(), "n_rattlers": int(rat.sum()),
            "slice_disks": prob.n_interior, "slice_contacts": nc, "feasible": an.feasible,
-           "bounded": an.bounded, "full_row_rank": an.full_row_rank, "dim_S": an.dim_S,
-           "dim_S_over_Nc": an.dim_S / nc if an.dim_S is not None and nc else None,
+           "bounded": an.bounded, "full_row_rank": an.full_row_rank, "dim_S": an.dim,
+           "dim_S_over_Nc": an.dim / nc if an.dim is not None and nc else None,
            "degree_of_indeterminacy": an.degree_of_indeterminacy,
            "n_sliding": an.n_sliding, "n_zero_force": an.n_zero,
            "t_jam_s": t_jam, "t_analyze_s": time.perf_counter() - t0,
@@ -127,15 +120,15 @@ def packing_task(scene: str, n_disks: int, mu: float, seed: int, samples: int, w
         return row
     # clusters: circuits (rho) up to clusters_max_dim, domains and percolation always
     t0 = time.perf_counter()
-    if an.dim_S and an.dim_S <= clusters_max_dim:
+    if an.dim and an.dim <= clusters_max_dim:
         dec = decompose(prob, an, p)
         rho = dec.density
     else:
-        doms = find_domains(prob, an) if an.dim_S else []
+        doms = domains(prob, an) if an.dim else []
         dec = ClusterDecomposition(clusters=[], domains=doms,
                                    percolates=[percolates(prob, p, g) for g in doms],
                                    n_interior=prob.n_interior)
-        rho = 0.0 if not an.dim_S else None
+        rho = 0.0 if not an.dim else None
     row.update(n_domains=len(dec.domains), n_elementary=dec.n_elementary if rho is not None
                else None, density_rho=rho,
                largest_domain_fraction=max((g.contacts.size for g in dec.domains),
@@ -146,12 +139,12 @@ def packing_task(scene: str, n_disks: int, mu: float, seed: int, samples: int, w
     if not an.bounded:
         return row
     runs = []
-    if an.dim_S:
-        d = an.dim_S
+    if an.dim:
+        d = an.dim
         shorter = dict(thin=d * d // 4, burn_in=2 * d * d) if d > HAR_BIG_DIM else {}
-        runs.append(("hit_and_run", HitAndRun(n=samples, seed=seed, **shorter)))
+        runs.append(("hit_and_run", fs.HitAndRun(n=samples, seed=seed, **shorter)))
         if relax:
-            runs.append(("relax", RelaxWalk(n=samples, seed=seed)))
+            runs.append(("relax", fs.RelaxWalk(n=samples, seed=seed)))
     else:                                   # S is one point: no ambiguity (mu > 0)
         row["eta_hit_and_run"] = 0.0
         row["eta_relax"] = 0.0 if relax else None

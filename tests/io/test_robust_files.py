@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from ensemble_cases import grooves, pyramid
-from forcespace import ensemble_file as ef
-from forcespace import relax_sampler as rs
+from forcespace.io import ensemble_file as ef
+from forcespace.io.ensemble_file import fingerprint, read_ensemble, read_file
+from forcespace.sampling.relax_walk import RelaxWalk
 from forcespace.cli import main
 from forcespace.io.outputs import output_lock
 from forcespace.io.packing_file import write_packing
@@ -37,7 +38,7 @@ def test_pack_refuses_to_overwrite_its_own_scene(tmp_path, capsys):
 
 @pytest.mark.parametrize("target", ["symlink", "device", "directory", "readonly", "trailing"])
 def test_bad_output_targets_are_refused_before_any_work(tmp_path, capsys, monkeypatch, target):
-    import forcespace.jamming as jamming
+    import forcespace.engine.protocol as jamming
     monkeypatch.setattr(jamming, "build_packing",
                         lambda *a, **k: pytest.fail("simulated before the output was checked"))
     keep = tmp_path / "precious.h5"
@@ -71,8 +72,7 @@ def test_a_failed_write_is_one_clean_error_and_leaves_no_temp_file(tmp_path):
     write_packing_src = (
         "import resource, signal, sys\n"
         "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
-        "from forcespace.packing_file import read_packing\n"
-        "from forcespace.cli import main\n"
+                "from forcespace.cli import main\n"
         "resource.setrlimit(resource.RLIMIT_FSIZE, (20000, 20000))\n"
         "sys.exit(main(['analyze', sys.argv[1], '--json']) if False else\n"
         "         main(['sample', sys.argv[1], '--sampler', 'relax', '-n', '400',\n"
@@ -92,8 +92,7 @@ def test_stale_temp_files_of_a_killed_run_are_removed(tmp_path):
     stale.write_bytes(b"half a checkpoint")
     other = tmp_path / ".other.h5.abc.tmp"
     other.write_bytes(b"not ours")
-    with output_lock(out):
-        rs.sample(prob, 3, out, seed=1)
+    RelaxWalk(3, seed=1).compute(prob, output=out)     # takes the lock: cleans its temps
     assert not stale.exists() and other.exists()
 
 
@@ -115,8 +114,8 @@ def test_appends_come_at_growing_intervals(tmp_path, monkeypatch):
     calls = []
     real = ef.append
     monkeypatch.setattr(ef, "append", lambda *a, **k: calls.append(1) or real(*a, **k))
-    rs.sample(prob, 300, tmp_path / "e.h5", seed=1, checkpoint_every=1)
-    assert ef.read(tmp_path / "e.h5").n_samples == 300
+    RelaxWalk(300, seed=1, checkpoint_every=1).compute(prob, output=tmp_path / "e.h5").summary()
+    assert read_ensemble(tmp_path / "e.h5").n_samples == 300
     # every sample was rewritten into the file 300 times before (quadratic I/O)
     assert len(calls) <= 60
 
@@ -194,7 +193,7 @@ def test_files_record_provenance_and_a_newer_format_is_refused(tmp_path, capsys)
     from forcespace.model.scene import SCHEMA_VERSION
     p = read_packing(PACK)                 # a format-1 file (no version attribute) still reads
     out = tmp_path / "p.h5"
-    p.save(out)
+    write_packing(p, out)
     with h5py.File(out, "r") as f:
         assert f.attrs["format_version"] == FORMAT_VERSION
         assert f.attrs["scene_schema_version"] == SCHEMA_VERSION
@@ -207,19 +206,18 @@ def test_files_record_provenance_and_a_newer_format_is_refused(tmp_path, capsys)
 
 def test_ensemble_read_without_samples_and_fingerprint_tolerates_last_bits():
     import forcespace as fs
-    from forcespace import ensemble_file as ef
-    from forcespace.sampling.hit_and_run import load_params
     from ensemble_cases import grooves
+    from forcespace.io.ensemble_file import fingerprint, read_file
     _, prob = grooves([0.5, 0.6], 0.3)
-    fs.HitAndRun(n=8, seed=1).run(prob, output="e.h5")
-    head = ef.read("e.h5", samples=False)
+    fs.HitAndRun(n=8, seed=1).compute(prob, output="e.h5")
+    head = read_file("e.h5", samples=False).ensemble
     assert head.n_samples == 0 and head.contacts.size == prob.n_contacts
-    assert load_params("e.h5")["seed"] == 1
+    assert head.params["seed"] == 1
     # the same problem with loads off in the last bits (another BLAS thread count) is
     # the same problem; a different load is not
     import dataclasses
     jitter = dataclasses.replace(prob, b=prob.b * (1 + 1e-14))
     other = dataclasses.replace(prob, b=prob.b * 1.01)
-    params = load_params("e.h5")
-    assert ef.fingerprint(jitter, "hit-and-run", params) == head.attrs["fingerprint"]
-    assert ef.fingerprint(other, "hit-and-run", params) != head.attrs["fingerprint"]
+    params = head.params
+    assert fingerprint(jitter, "hit-and-run", params) == head.attrs["fingerprint"]
+    assert fingerprint(other, "hit-and-run", params) != head.attrs["fingerprint"]

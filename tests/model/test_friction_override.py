@@ -4,7 +4,7 @@ from paths import PACKINGS
 
 import numpy as np
 
-from forcespace import ensemble_file as ef
+from forcespace.io.ensemble_file import read_ensemble
 from forcespace.cli import main
 from forcespace.io.packing_file import read_packing
 from forcespace.space.force_space import ForceSpace
@@ -37,7 +37,7 @@ def test_sampling_with_friction_switched_on_is_recorded(tmp_path, capsys):
     ens = tmp_path / "e.h5"
     assert main(["sample", str(PACK0), "--mu", "0.05", "--sampler", "hit-and-run", "-n", "8",
                  "--thin", "5", "--burn-in", "20", "-o", str(ens), "--quiet"]) == 0
-    e = ef.read(ens)
+    e = read_ensemble(ens)
     assert e.attrs["mu_override"] == 0.05 and np.all(e.mu == 0.05)
     assert main(["ensemble", str(ens), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)

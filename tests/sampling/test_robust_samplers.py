@@ -5,10 +5,13 @@ import numpy as np
 import pytest
 
 from ensemble_cases import grooves, pyramid
-from forcespace import ensemble_file as ef
-from forcespace import hit_and_run as har
-from forcespace import relax_sampler as rs
+from forcespace import config
 from forcespace.cli import main
+from forcespace.io.ensemble_file import read_ensemble, read_file
+from forcespace.sampling import hit_and_run as har
+from forcespace.sampling import relax_walk as rs
+from forcespace.sampling.hit_and_run import HitAndRun
+from forcespace.sampling.relax_walk import RelaxWalk
 from forcespace.errors import InputError, NumericalError
 from forcespace.io.packing_file import write_packing
 from forcespace.model.problem import full_problem, plate_problem
@@ -34,11 +37,14 @@ def test_a_stalled_relaxation_is_finished_by_the_projection_and_counted(tmp_path
     # (non-static) solution; the walk used to abort there, losing its samples
     _, prob = pyramid(3, 0.6)
     out = tmp_path / "r.h5"
-    res = rs.sample(prob, 12, out, seed=2)
-    ens = ef.read(out)
+    walk = RelaxWalk(12, seed=2).compute(prob, output=out)
+    res = walk.summary()
+    stored = read_file(out)
+    ens = stored.ensemble
     assert ens.n_samples == 12 and res["max_violation"] <= 1e-9
     _in_S(prob, ens.samples)
-    projected = ens.checkpoint["projected"]
+    projected = stored.checkpoint["projected"]
+    assert np.array_equal(projected, walk.projected)
     assert res["n_projected"] == projected.size >= 1
     assert set(projected.tolist()) <= set(range(12))
 
@@ -50,8 +56,8 @@ def test_relax_walk_on_the_plate_problem_balances_the_plate(frictional_plate_pac
     prob = plate_problem(p)
     top = np.flatnonzero(np.asarray(p.b)[prob.contacts] == -2)
     assert top.size >= 1
-    res = rs.sample(prob, 10, tmp_path / "plate.h5", seed=1)
-    X = ef.read(tmp_path / "plate.h5").samples
+    res = RelaxWalk(10, seed=1).compute(prob, output=tmp_path / "plate.h5").summary()
+    X = read_ensemble(tmp_path / "plate.h5").samples
     _in_S(prob, X)
     assert res["n_projected"] == 0             # relaxed by NLGS itself, not projected
     assert X[:, 2 * top].sum(axis=1) == pytest.approx(p.top_force, rel=1e-8)
@@ -72,13 +78,13 @@ def test_finished_samples_survive_an_error_in_the_walk(tmp_path, monkeypatch):
 
     monkeypatch.setattr(rs, "kick", failing_kick)
     with pytest.raises(NumericalError, match="simulated"):
-        rs.sample(prob, 20, out, seed=4, checkpoint_every=5)
-    assert ef.read(out).n_samples == 7          # not 5: the two past the checkpoint are kept
+        RelaxWalk(20, seed=4, checkpoint_every=5).compute(prob, output=out).summary()
+    assert read_ensemble(out).n_samples == 7          # not 5: the two past the checkpoint are kept
     monkeypatch.setattr(rs, "kick", real_kick)
-    rs.sample(prob, 20, out, seed=4, checkpoint_every=5)   # and the walk resumes after them
+    RelaxWalk(20, seed=4, checkpoint_every=5).compute(prob, output=out).summary()   # and the walk resumes after them
     full = tmp_path / "full.h5"
-    rs.sample(prob, 20, full, seed=4, checkpoint_every=5)
-    assert np.array_equal(ef.read(out).samples, ef.read(full).samples)
+    RelaxWalk(20, seed=4, checkpoint_every=5).compute(prob, output=full).summary()
+    assert np.array_equal(read_ensemble(out).samples, read_ensemble(full).samples)
 
 
 @pytest.mark.parametrize("kw, field", [
@@ -87,7 +93,7 @@ def test_finished_samples_survive_an_error_in_the_walk(tmp_path, monkeypatch):
 def test_relax_options_are_refused_before_any_work(tmp_path, kw, field):
     _, prob = grooves(THETAS, MU)
     with pytest.raises(InputError, match=field):
-        rs.sample(prob, out=tmp_path / "r.h5", **kw)
+        RelaxWalk(**kw).compute(prob, output=tmp_path / "r.h5").summary()
     assert not (tmp_path / "r.h5").exists()
 
 
@@ -97,7 +103,7 @@ def test_relax_options_are_refused_before_any_work(tmp_path, kw, field):
 def test_hit_and_run_options_are_refused_before_any_work(tmp_path, kw, field):
     _, prob = grooves(THETAS, MU)
     with pytest.raises(InputError, match=field):
-        har.sample(prob, 5, tmp_path / "h.h5", **kw)
+        HitAndRun(5, **kw).compute(prob, output=tmp_path / "h.h5").summary()
     assert not (tmp_path / "h.h5").exists()
 
 
@@ -121,20 +127,20 @@ def test_relax_on_a_problem_without_unknown_contacts_is_refused(tmp_path):
     from dataclasses import replace
     empty = replace(prob, contacts=prob.contacts[:0])
     with pytest.raises(InputError, match="no unknown contact"):
-        rs.sample(empty, 5, tmp_path / "r.h5")
+        RelaxWalk(5).compute(empty, output=tmp_path / "r.h5").summary()
 
 
 def test_ensemble_of_a_point_like_S_reports_no_ratio_of_round_off(tmp_path):
     def ensemble_summary(path):
-        return ef.read(path).summary()
+        return read_ensemble(path).summary()
     _, prob = grooves(THETAS, 0.0)                  # frictionless grooves: dim S = 0
-    rs.sample(prob, 10, tmp_path / "r.h5", seed=1)
+    RelaxWalk(10, seed=1).compute(prob, output=tmp_path / "r.h5").summary()
     out = ensemble_summary(tmp_path / "r.h5")
     assert out["eta"] < 1e-8                         # the solver floor
     assert out["jammed_distance_over_mean"] is None  # was a ratio of round-off (e.g. 8382)
     assert "numerically a point" in out["jammed_distance_over_mean_reason"]
     _, prob = grooves(THETAS, MU)                    # dim S = 2: a real ratio
-    rs.sample(prob, 10, tmp_path / "r2.h5", seed=1)
+    RelaxWalk(10, seed=1).compute(prob, output=tmp_path / "r2.h5").summary()
     out = ensemble_summary(tmp_path / "r2.h5")
     assert 0 < out["jammed_distance_over_mean"] < 10
 
@@ -153,9 +159,9 @@ def test_hit_and_run_keeps_finished_samples_on_an_error(tmp_path, monkeypatch):
 
     monkeypatch.setattr(har, "har_steps", failing)
     with pytest.raises(NumericalError, match="simulated"):
-        har.sample(prob, 20, out, seed=3, checkpoint_every=5)
-    assert ef.read(out).n_samples == 7
+        HitAndRun(20, seed=3, checkpoint_every=5).compute(prob, output=out).summary()
+    assert read_ensemble(out).n_samples == 7
     monkeypatch.setattr(har, "har_steps", real)
-    har.sample(prob, 20, out, seed=3, checkpoint_every=5)   # resumes from the last good state
-    X = ef.read(out).samples
-    assert X.shape[0] == 20 and max(prob.violation(x) for x in X) <= har.MAX_VIOLATION
+    HitAndRun(20, seed=3, checkpoint_every=5).compute(prob, output=out).summary()   # resumes from the last good state
+    X = read_ensemble(out).samples
+    assert X.shape[0] == 20 and max(prob.violation(x) for x in X) <= config.SAMPLE_VIOLATION

@@ -4,10 +4,12 @@ import pytest
 from scipy import stats
 
 from ensemble_cases import groove_interval, grooves, lattice_in_box, lattice_rows
-from forcespace import ensemble_file as ef
-from forcespace import hit_and_run as har
-from forcespace import relax_sampler as rs
+from forcespace import config
 from forcespace.errors import InputError
+from forcespace.io.ensemble_file import read_ensemble
+from forcespace.sampling import hit_and_run as har
+from forcespace.sampling.hit_and_run import HitAndRun
+from forcespace.sampling.relax_walk import RelaxWalk
 from forcespace.space.force_space import ForceSpace
 
 THETAS, MU = [np.pi / 6, np.pi / 5], 0.3
@@ -21,18 +23,18 @@ def _in_S(prob, X, tol):
         assert x[0::2].min() >= -tol * prob.force_scale
 
 
-@pytest.mark.parametrize("max_rows", [har.MVE_MAX_ROWS, 0])
+@pytest.mark.parametrize("max_rows", [config.MVE_MAX_ROWS, 0])
 def test_hit_and_run_is_uniform_on_a_rectangle(tmp_path, monkeypatch, max_rows):
     """Two independent grooves: S is a rectangle in (s1, s2) (dim 2). Marginals
     must be uniform, and u1 + u2 triangular (joint uniformity); with either
     rounding (max_rows 0: the Lewis-weight one of big slices)."""
-    monkeypatch.setattr(har, "MVE_MAX_ROWS", max_rows)
+    monkeypatch.setattr(config, "MVE_MAX_ROWS", max_rows)
     _, prob = grooves(THETAS, MU)
     out = tmp_path / "h.h5"
-    res = har.sample(prob, 600, out, seed=11, thin=20)
+    res = HitAndRun(600, seed=11, thin=20).compute(prob, output=out).summary()
     assert res["params"]["rounding"] == ("john" if max_rows == 0 else "mve")
-    X = ef.read(out).samples
-    assert res["max_violation"] <= har.MAX_VIOLATION
+    X = read_ensemble(out).samples
+    assert res["max_violation"] <= config.SAMPLE_VIOLATION
     _in_S(prob, X, 1e-9)
     u = []
     for k, th in enumerate(THETAS):
@@ -59,12 +61,12 @@ def test_samples_in_S_and_extremes_reach_lp_ranges(tmp_path, sampler):
     assert an.dim == 17
     out = tmp_path / "e.h5"
     if sampler == "relax":
-        res = rs.sample(prob, 150, out, seed=1, tol=1e-9)
+        res = RelaxWalk(150, seed=1, tol=1e-9).compute(prob, output=out).summary()
         tol = 1e-9
     else:
-        res = har.sample(prob, 300, out, seed=1)
-        tol = har.MAX_VIOLATION
-    X = ef.read(out).samples
+        res = HitAndRun(300, seed=1).compute(prob, output=out).summary()
+        tol = config.SAMPLE_VIOLATION
+    X = read_ensemble(out).samples
     assert res["max_violation"] <= tol
     _in_S(prob, X, tol)
     lo, hi = an.fn_range[:, 0], an.fn_range[:, 1]
@@ -78,41 +80,43 @@ def test_relax_reaches_both_ends_of_a_groove(tmp_path):
     _, prob = grooves(THETAS, MU)
     an = ForceSpace(ranges=True).compute(prob)
     out = tmp_path / "r.h5"
-    rs.sample(prob, 200, out, seed=3)
-    X = ef.read(out).samples
+    RelaxWalk(200, seed=3).compute(prob, output=out).summary()
+    X = read_ensemble(out).samples
     _in_S(prob, X, 1e-9)
     w = an.ft_range[:, 1] - an.ft_range[:, 0]
     assert np.all((X[:, 1::2].min(0) - an.ft_range[:, 0]) / w < 0.02)
     assert np.all((an.ft_range[:, 1] - X[:, 1::2].max(0)) / w < 0.02)
 
 
-@pytest.mark.parametrize("mod", [har, rs])
-def test_resume_continues_the_same_walk(tmp_path, mod):
+@pytest.mark.parametrize("cls", [HitAndRun, RelaxWalk])
+def test_resume_continues_the_same_walk(tmp_path, cls):
     _, prob = grooves(THETAS, MU)
     a, b = tmp_path / "a.h5", tmp_path / "b.h5"
-    mod.sample(prob, 30, a, seed=5, checkpoint_every=7)
-    mod.sample(prob, 30, b, seed=5, checkpoint_every=7, max_seconds=0.0)   # "killed" early
-    first = ef.read(b).n_samples
-    assert 0 < first < 30
-    mod.sample(prob, 30, b, seed=5, checkpoint_every=7)                    # rerun: continues
-    Xa, Xb = ef.read(a).samples, ef.read(b).samples
+    cls(30, seed=5, checkpoint_every=7).compute(prob, output=a)
+    early = cls(30, seed=5, checkpoint_every=7, max_seconds=0.0).compute(prob, output=b)
+    first = read_ensemble(b).n_samples                                   # "killed" early
+    assert 0 < first < 30 and early.status == 1 and "max_seconds" in early.message
+    cls(30, seed=5, checkpoint_every=7).compute(prob, output=b)          # rerun: continues
+    Xa, Xb = read_ensemble(a).samples, read_ensemble(b).samples
     assert Xb.shape == (30, 8)
     assert np.array_equal(Xa, Xb)
+    memory = cls(30, seed=5).compute(prob).ensemble                    # in memory: the same
+    assert np.array_equal(memory.samples, Xa) and memory.path is None
 
 
 def test_resume_refuses_another_run(tmp_path):
     _, prob = grooves(THETAS, MU)
     out = tmp_path / "a.h5"
-    har.sample(prob, 5, out, seed=5)
+    HitAndRun(5, seed=5).compute(prob, output=out).summary()
     with pytest.raises(InputError, match="another"):
-        har.sample(prob, 10, out, seed=6)
+        HitAndRun(10, seed=6).compute(prob, output=out).summary()
 
 
-@pytest.mark.parametrize("mod", [har, rs])
-def test_unbounded_S_is_never_sampled(tmp_path, mod):
+@pytest.mark.parametrize("cls", [HitAndRun, RelaxWalk])
+def test_unbounded_S_is_never_sampled(tmp_path, cls):
     _, prob = lattice_in_box(0.3)
     with pytest.raises(InputError, match="unbounded"):
-        mod.sample(prob, 5, tmp_path / "u.h5")
+        cls(5).compute(prob, output=tmp_path / "u.h5")
     assert not (tmp_path / "u.h5").exists()
 
 
@@ -133,10 +137,10 @@ def test_rows_constant_on_the_affine_hull_are_dropped_from_the_frame(monkeypatch
     G2 = sp.vstack([G, row]).tocsr()
     monkeypatch.setattr(prob, "_inequalities", (G2, np.append(owner, 0), np.append(kind, 0)))
     xc, N, H0, s0, free, _ = har.frame(prob, an)
-    assert G.shape[0] not in free and np.abs(G2[-1] @ N).max() <= har.FLAT_ROW
+    assert G.shape[0] not in free and np.abs(G2[-1] @ N).max() <= config.FLAT_ROW
     y0, L, _ = har.rounding(H0, s0, prob.force_scale)
     assert np.all(H0 @ (prob.force_scale * y0) <= s0)    # a strictly interior start
-    monkeypatch.setattr(har, "FLAT_ROW", -1.0)           # keep the row: rounding fails
+    monkeypatch.setattr(config, "FLAT_ROW", -1.0)           # keep the row: rounding fails
     xc, N, H0, s0, free, _ = har.frame(prob, an)
     assert G.shape[0] in free and s0[-1] < 0
     with pytest.raises(InputError, match="strictly inside"):
@@ -147,13 +151,9 @@ def test_burn_in_in_chunks_is_the_same_walk(monkeypatch):
     """The burn-in runs in chunks (for its progress bar): any chunk size that is a
     multiple of the slack refresh interval (64 at this dim) must leave every chain
     bit for bit where one call would."""
-    from forcespace.io.h5 import MemoryFile
-
     _, prob = lattice_rows(4, 2, 0.5)
     runs = []
     for chunk in (64, 64 * 3, 10 ** 9):
         monkeypatch.setattr(har, "BURN_IN_CHUNK", chunk)
-        out = MemoryFile("<chunks>")
-        har.sample(prob, 4, out, seed=5, burn_in=1000)
-        runs.append(ef.read(out).samples)
+        runs.append(HitAndRun(4, seed=5, burn_in=1000).compute(prob).ensemble.samples)
     assert np.array_equal(runs[0], runs[2]) and np.array_equal(runs[1], runs[2])

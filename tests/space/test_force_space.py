@@ -110,8 +110,7 @@ def test_projection_in_a_14_dimensional_S_satisfies_kkt():
     res = distance_to_S(prob, xh)
     assert res.max_violation < 1e-9 and res.kkt_residual < 1e-9
     # no feasible point is closer: compare with points of S on segments to the projection
-    from forcespace.space.force_space import analyze as an_
-    c = an_(prob, ranges=False).centre
+    c = ForceSpace().compute(prob).centre
     for t in np.linspace(0, 1, 11):
         y = (1 - t) * res.nearest + t * c        # convex combination stays in S
         assert np.linalg.norm(y - xh) >= res.absolute - 1e-12

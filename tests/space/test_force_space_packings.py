@@ -1,11 +1,13 @@
 """S of real (engine-built) packings, the projection polish regression, MVE rounding."""
 import numpy as np
+
+from forcespace import config
 import pytest
 
 from ensemble_cases import grooves, lattice_rows
-from forcespace import ensemble_file as ef
-from forcespace import hit_and_run as har
-from forcespace import relax_sampler as rs
+from forcespace.io.ensemble_file import read_ensemble, read_file
+from forcespace.sampling.hit_and_run import HitAndRun
+from forcespace.sampling.relax_walk import RelaxWalk
 from forcespace.measures import eta
 from forcespace.space.projection import _polish, distance_to_S
 from forcespace.space.force_space import ForceSpace
@@ -57,9 +59,9 @@ def test_frictionless_jammed_packing_is_determinate(quick_packing, tmp_path):
             np.sqrt(prob.n_contacts)
     prob = slice_problem(quick_packing, 10.0)
     out = tmp_path / "r.h5"
-    res = rs.sample(prob, 20, out, seed=0, tol=1e-9)
+    res = RelaxWalk(20, seed=0, tol=1e-9).compute(prob, output=out).summary()
     assert res["max_violation"] <= 1e-9
-    assert eta(ef.read(out).samples) <= 1e-8
+    assert eta(read_ensemble(out).samples) <= 1e-8
 
 
 def test_mve_of_a_box_and_of_a_triangle():
@@ -79,9 +81,8 @@ def test_mve_of_a_box_and_of_a_triangle():
 
 def test_hit_and_run_mixes_on_a_17_dimensional_S(tmp_path):
     _, prob = lattice_rows(4, 2, 0.5)
-    res = har.sample(prob, 200, tmp_path / "h.h5", seed=3)
-    assert res["dim_S"] == 17 and res["max_violation"] <= har.MAX_VIOLATION
+    res = HitAndRun(200, seed=3).compute(prob, output=tmp_path / "h.h5").summary()
+    assert res["dim_S"] == 17 and res["max_violation"] <= config.SAMPLE_VIOLATION
     assert res["rhat_sqdev"] < 1.1 and res["rhat_projections_max"] < 1.1
     assert res["ess_projections_min"] > 50
-    ens = ef.read(tmp_path / "h.h5")
-    assert ens.setup["mve_axis_ratio"][-1] < 6
+    assert read_file(tmp_path / "h.h5").setup["mve_axis_ratio"][-1] < 6

@@ -136,8 +136,8 @@ def test_wedged_geometry_is_unbounded_and_refused_for_sampling(tmp_path):
     an = ForceSpace(ranges=False).compute(prob)
     assert an.feasible and an.bounded is False
     with pytest.raises(InputError, match="unbounded"):
-        from forcespace import hit_and_run as har
-        har.sample(prob, 5, tmp_path / "h.h5")
+        from forcespace.sampling.hit_and_run import HitAndRun
+        HitAndRun(5).compute(prob, output=tmp_path / "h.h5").summary()
 
 
 def test_slice_without_interior_contacts_is_one_clear_error(tmp_path, capsys):
@@ -172,13 +172,13 @@ def test_projection_on_a_slice_with_near_dependent_equilibrium_rows():
     from forcespace.space.force_space import chebyshev_centre
     from forcespace.space.projection import distance_to_S
 
-    p = fs.Packing.load(DATA / "paper_fast_n100_mu1_seed2.h5")
+    p = fs.read_packing(DATA / "paper_fast_n100_mu1_seed2.h5")
     prob = fs.slice_problem(p, 28.0 * np.sqrt(100 / 200))     # the scaled slice
     x = np.load(DATA / "paper_fast_n100_mu1_seed2_stall.npy")
     assert prob.violation(x) > 1e-2                      # the stalled state is outside S
     r = distance_to_S(prob, x)
     assert r.max_violation <= 1e-9 and r.kkt_residual <= 1e-9
     assert distance_to_S(prob, r.nearest).absolute <= 1e-9 * prob.force_scale
-    others = fs.HitAndRun(n=100, seed=3).run(prob).samples
+    others = fs.HitAndRun(n=100, seed=3).compute(prob).ensemble.samples
     others = np.vstack([others, chebyshev_centre(prob)[0]])
     assert np.linalg.norm(others - x, axis=1).min() >= r.absolute * (1 - 1e-9)

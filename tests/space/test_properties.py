@@ -13,8 +13,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from ensemble_cases import lattice_rows
-from forcespace import ensemble_file as ef
-from forcespace import hit_and_run as har
+from forcespace.io.ensemble_file import read_ensemble
+from forcespace.sampling.hit_and_run import HitAndRun
 from forcespace.measures import eta
 from forcespace.space.force_space import ForceSpace
 from forcespace.model.problem import build_problem
@@ -82,9 +82,9 @@ def test_hit_and_run_samples_lie_in_S_and_eta_ignores_the_load_scale(tmp_path_fa
     s = 2.0 ** k
     scaled = rebuild(p, width + 1, gravity=p.gravity * s, fn=p.fn * s, ft=p.ft * s)
     d = tmp_path_factory.mktemp("har")
-    har.sample(prob, 40, d / "a.h5", seed=seed, thin=5, burn_in=50)
-    har.sample(scaled, 40, d / "b.h5", seed=seed, thin=5, burn_in=50)
-    A, B = ef.read(d / "a.h5").samples, ef.read(d / "b.h5").samples
+    HitAndRun(40, seed=seed, thin=5, burn_in=50).compute(prob, output=d / "a.h5").summary()
+    HitAndRun(40, seed=seed, thin=5, burn_in=50).compute(scaled, output=d / "b.h5").summary()
+    A, B = read_ensemble(d / "a.h5").samples, read_ensemble(d / "b.h5").samples
     for pr, X in ((prob, A), (scaled, B)):
         assert max(pr.violation(x) for x in X) <= 1e-9
     assert np.array_equal(B, A * s)

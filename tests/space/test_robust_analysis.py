@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from ensemble_cases import lattice_rows, pyramid
-from forcespace import measures
+from forcespace.space.structure import domains
 from forcespace.cli import main
 from forcespace.io.packing_file import read_packing
 from forcespace.space.force_space import ForceSpace, check_bounded, check_feasible
@@ -113,8 +113,8 @@ def test_round_off_couplings_do_not_enlarge_an_elementary_cluster():
     width = np.maximum(np.ptp(an.fn_range, axis=1), np.ptp(an.ft_range, axis=1))
     by_lp = np.flatnonzero(width > 1e-6 * prob.force_scale)
     assert by_lp.size == 5
-    assert np.array_equal(measures.varying_contacts(an), by_lp)
-    doms = measures.domains(prob, an)
+    assert np.array_equal(an.varying_contacts, by_lp)
+    doms = domains(prob, an)
     assert len(doms) == 1 and doms[0].elementary and doms[0].dim == 1
     assert np.array_equal(doms[0].contacts, by_lp)
 
@@ -124,9 +124,9 @@ def test_domains_agree_with_the_varying_contacts_and_dim_S(path):
     p = read_packing(path)
     prob = slice_problem(p, 28.0)
     an = ForceSpace(ranges=True).compute(prob)
-    doms = measures.domains(prob, an)
+    doms = domains(prob, an)
     union = np.unique(np.concatenate([d.contacts for d in doms])) if doms else np.zeros(0)
-    assert np.array_equal(union, measures.varying_contacts(an))
+    assert np.array_equal(union, an.varying_contacts)
     assert sum(d.dim for d in doms) == an.dim
     # disjoint domains, and a contact varies iff its LP range exceeds VARY_TOL <Fn>
     assert sum(d.contacts.size for d in doms) == union.size

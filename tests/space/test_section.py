@@ -16,7 +16,7 @@ def test_section_of_two_grooves_is_their_rectangle():
     # S is 2-dimensional, so any plane of its hull is S itself: a rectangle with sides
     # L_k |u_k|, u_k = (dN/ds, 1, dN/ds, -1) per groove, |u_k| = sqrt(2) / cos(theta_k)
     _, prob = grooves(THETAS, MU)
-    sec = fs.section(prob, n=401, seed=3, margin=0.1)
+    sec = fs.Section(n=401, seed=3, margin=0.1).compute(prob)
     area = np.prod([np.subtract(*groove_interval(th, MU)[::-1]) * np.sqrt(2) / np.cos(th)
                     for th in THETAS])
     box = np.ptp(sec.s) * np.ptp(sec.t)
@@ -33,13 +33,14 @@ def test_section_of_two_grooves_is_their_rectangle():
 
 
 def test_section_cli_and_refusals(tmp_path, capsys):
-    p = fs.Packing.load(PACKINGS / "paper_mu0.1.h5")
-    p.save(tmp_path / "p.h5")
+    p = fs.read_packing(PACKINGS / "paper_mu0.1.h5")
+    fs.write_packing(p, tmp_path / "p.h5")
     assert main(["section", str(tmp_path / "p.h5"), "-n", "41", "-o", str(tmp_path / "s.png"),
                  "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert 0 < out["inside_fraction"] < 1 and out["jammed_state_violation"] == 0.0
+    # the jammed network is in S, to its solver's accuracy
+    assert 0 < out["inside_fraction"] < 1 and out["jammed_state_violation"] <= 1e-9
     assert (tmp_path / "s.png").is_file() and (tmp_path / "s.pdf").is_file()
     _, prob = grooves([THETAS[0]], MU)                  # dim S = 1: no plane
     with pytest.raises(fs.InputError, match="dim S"):
-        fs.section(prob)
+        fs.Section().compute(prob)

@@ -6,41 +6,33 @@ benchmarks) and compared with the dense path: dimensions exactly, the centre
 radius to 1e-9 <Fn> (each centre holding that ball in S), ranges to 1e-9 <Fn>,
 the varying contacts and the domains identical.
 """
-import importlib.util
-
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from forcespace import measures, polytope
+from forcespace import config, read_packing
 from forcespace.linalg import sweep_null_space
-from forcespace.model.packing import Packing
+from forcespace.model.packing import tile
 from forcespace.model.problem import slice_problem
-from paths import PACKINGS, ROOT
-
-
-def _tile(p, k):
-    spec = importlib.util.spec_from_file_location("bench", ROOT / "studies" / "bench.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
-    return bench.tile(p, k)
+from forcespace.space.force_space import ForceSpace
+from forcespace.space.structure import domains
+from paths import PACKINGS
 
 
 def _both(monkeypatch, prob, ranges):
     """(analysis, domains) by the dense path, then by the sparse path."""
     out = []
     for th in (10**9, 0):
-        monkeypatch.setattr(polytope, "SWEEP_MIN_COLUMNS", th)
-        monkeypatch.setattr(measures, "SWEEP_MIN_COLUMNS", th)
+        monkeypatch.setattr(config, "SWEEP_MIN_COLUMNS", th)
         an = ForceSpace(ranges=ranges).compute(prob)
-        out.append((an, measures.domains(prob, an)))
+        out.append((an, domains(prob, an)))
     return out
 
 
 def _same(prob, dense, sparse, ranges):
     (a, da), (b, db) = dense, sparse
     s = prob.force_scale
-    for name in ("feasible", "bounded", "dim_S", "rank_A", "degree_of_indeterminacy",
+    for name in ("feasible", "bounded", "dim", "rank_A", "degree_of_indeterminacy",
                  "n_sliding", "n_zero"):
         assert getattr(a, name) == getattr(b, name), name
     assert np.array_equal(a.implicit_rows, b.implicit_rows)
@@ -72,12 +64,12 @@ def _same(prob, dense, sparse, ranges):
 @pytest.mark.parametrize("mu,ranges", [("0", True), ("0.01", False), ("0.1", True),
                                        ("0.5", True)])
 def test_sparse_path_equals_dense_on_paper_packings(monkeypatch, mu, ranges):
-    prob = slice_problem(Packing.load(PACKINGS / f"paper_mu{mu}.h5"), 28.0)
+    prob = slice_problem(read_packing(PACKINGS / f"paper_mu{mu}.h5"), 28.0)
     _same(prob, *_both(monkeypatch, prob, ranges), ranges)
 
 
 def test_sparse_path_equals_dense_on_a_tiling(monkeypatch):
-    prob = slice_problem(_tile(Packing.load(PACKINGS / "paper_mu0.1.h5"), 3), 28.0)
+    prob = slice_problem(tile(read_packing(PACKINGS / "paper_mu0.1.h5"), 3), 28.0)
     _same(prob, *_both(monkeypatch, prob, False), False)
 
 

@@ -36,7 +36,7 @@ def test_two_grooves_on_a_shared_support_are_exactly_two_elementary_clusters():
 
 
 def test_decomposition_invariants_on_a_paper_slice():
-    p = fs.Packing.load(PACKINGS / "paper_mu0.5.h5")
+    p = fs.read_packing(PACKINGS / "paper_mu0.5.h5")
     prob = fs.slice_problem(p, 28.0)
     an = ForceSpace(ranges=False).compute(prob)
     dec = decompose(prob, an, p)
@@ -73,7 +73,7 @@ def test_draw_difference_and_analyze_clusters_cli(tmp_path, capsys):
     assert main(["draw", str(src), "--difference", "--slice", "28", "-o", str(fig)]) == 0
     assert fig.is_file() and fig.with_suffix(".pdf").is_file()
     p, prob = shared_support_grooves(TA, TB, 0.0)        # frictionless: S is a point
-    p.save(tmp_path / "det.h5")
+    fs.write_packing(p, tmp_path / "det.h5")
     assert main(["draw", str(tmp_path / "det.h5"), "--difference", "--full",
                  "-o", str(tmp_path / "d.png")]) == 2
     assert "dimension >= 1" in capsys.readouterr().err

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from forcespace.cli import main
-from forcespace.studies import fig1
+from forcespace_studies import fig1
 from forcespace.sweep import Task, run_tasks
 
 KEYS = ("mu", "mu_sample", "seed", "z", "dim_S", "degree_of_indeterminacy",
@@ -71,7 +71,7 @@ def test_fig1_quick_local_pool_resumes_and_equals_dask(tmp_path, capsys):
 
 
 def test_a_failing_task_is_a_result_and_names_must_be_unique(tmp_path):
-    bad = Task("bad", "forcespace.studies.fig1:packing_task",
+    bad = Task("bad", "forcespace_studies.fig1:packing_task",
                dict(scene="quick", n_disks=0, slice_height=10.0, samples=2, mu=0.1, seed=1))
     (res,) = run_tasks([bad], tmp_path, progress=False)
     assert res["ok"] is False and "disks.n" in res["error"]
@@ -115,7 +115,7 @@ def test_fig3_quick_distances_boundary_and_uniformity(tmp_path, capsys):
     assert "(fig3/fig3.png)" in report and "uniformly" in report
     # one task through a Dask cluster on loopback gives the same numbers
     distributed = pytest.importorskip("distributed")
-    from forcespace.studies import fig3
+    from forcespace_studies import fig3
     task = fig3.tasks(quick=True)[0]
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   protocol="tcp", host="127.0.0.1",
@@ -131,7 +131,7 @@ def test_fig3_quick_distances_boundary_and_uniformity(tmp_path, capsys):
 
 
 def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
-    from forcespace.studies.report import Verdict, write_section
+    from forcespace_studies.report import Verdict, write_section
     with pytest.raises(ValueError, match="verdict"):
         Verdict("x", "claim", "ours", "probably")
     for name in ("fig3", "fig1"):
@@ -185,7 +185,9 @@ def test_pointforce_quick_and_report_only(tmp_path, capsys):
 
 def test_max_point_force_is_where_rigid_disks_start_to_move():
     import forcespace as fs
-    from forcespace.engine.push import max_point_force, push, surface_disk
+    from forcespace.engine.push import push
+    from forcespace.measures import surface_disk
+    from forcespace.space.loads import max_point_force
     from paths import INPUTS
     p = fs.jam(INPUTS / "layer.toml", physics__mu=0.1, physics__plate_mu=0.1, disks__n=40,
                box__width=20.0)
@@ -206,7 +208,7 @@ def test_location_verdict_half_a_decade():
 
 @pytest.mark.slow
 def test_size_quick_scaled_boxes_and_indeterminacy_bookkeeping(tmp_path, capsys):
-    from forcespace.studies import size
+    from forcespace_studies import size
     out = tmp_path / "size"
     summary = run_quick("size", out, capsys)
     assert summary["failed"] == 0 and summary["rows"] == 4
@@ -252,7 +254,7 @@ def test_size_quick_scaled_boxes_and_indeterminacy_bookkeeping(tmp_path, capsys)
 
 
 def test_size_slope_decision_and_what_would_decide_it():
-    from forcespace.studies import size
+    from forcespace_studies import size
     n = np.repeat([100.0, 200.0, 500.0, 1000.0, 2000.0], 3)
     wiggle = np.exp(np.tile([-0.02, 0.0, 0.02], 5))
     grows = size.slope_interval(n, 1e-3 * n ** 0.5 * wiggle)

@@ -339,3 +339,29 @@ def check_packing(p: Packing, source="packing") -> Packing:
     if nc and np.abs(np.hypot(p.normal[:, 0], p.normal[:, 1]) - 1.0).max() > 1e-6:
         bad("contacts/normal", "must be unit vectors")
     return p
+
+
+def tile(p: Packing, k: int) -> Packing:
+    """The periodic packing ``p`` repeated k times along x: k n disks in a box k times as
+    wide, the same contacts and forces in every copy, the top load k times larger (so the
+    loads per width are unchanged). A packing with the contact structure of a real jammed
+    one at any size, for tests and benchmarks."""
+    if not p.periodic_x:
+        raise InputError("tile", "periodic_x", "only a packing periodic in x can be tiled")
+    if not (isinstance(k, int) and k >= 1):
+        raise InputError("tile", "k", "must be an integer >= 1", got=k)
+    n = p.n_disks
+    x = np.tile(p.x, k) + np.repeat(np.arange(k), n) * p.width
+    a_blocks, b_blocks, img_blocks = [], [], []
+    for c in range(k):
+        a_blocks.append(np.where(p.a >= 0, p.a + c * n, p.a))
+        # b's image: the copy (c + image) mod k, with the wrap carried by the new image
+        tgt = c + p.image
+        b_blocks.append(np.where(p.b >= 0, p.b + (tgt % k) * n, p.b))
+        img_blocks.append(np.where(p.b >= 0, np.floor_divide(tgt, k), 0))
+    fields = {name: np.concatenate([getattr(p, name)] * k)
+              for name in ("normal", "point", "gap", "fn", "ft")}
+    density = p.density if np.ndim(p.density) == 0 else np.tile(p.density, k)
+    return replace(p, x=x, y=np.tile(p.y, k), r=np.tile(p.r, k), width=k * p.width,
+                   top_force=k * p.top_force, density=density, a=np.concatenate(a_blocks),
+                   b=np.concatenate(b_blocks), image=np.concatenate(img_blocks), **fields)

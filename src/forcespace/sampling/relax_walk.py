@@ -211,6 +211,7 @@ class RelaxWalk(Computed):
     def compute(self, problem: StaticsProblem, output=None, start=None) -> "RelaxWalk":
         """Walk through S of ``problem`` (refuses an empty or unbounded S)."""
         t0 = time.perf_counter()
+        walk = _Walk(problem, self.seed, self.tol, self.chunk, self.max_sweeps, start)
         feas, _, _ = check_feasible(problem)
         if not feas:
             raise InputError(problem.source or "problem", "S",
@@ -220,7 +221,6 @@ class RelaxWalk(Computed):
             raise InputError(problem.source or "problem", "S",
                              "is unbounded (a recession direction exists, e.g. a wedged "
                              "contact); refusing to sample")
-        walk = _Walk(problem, self.seed, self.tol, self.chunk, self.max_sweeps, start)
         ens = run_walk(walk, problem, self.n, output, self.checkpoint_every, self.max_seconds,
                        self.progress, t_start=t0)
         self._start()

@@ -1,0 +1,6 @@
+"""``python -m forcespace.cli``: the ``forcespace`` command."""
+import sys
+
+from . import main
+
+sys.exit(main())
