@@ -106,11 +106,9 @@ def sweep_null_space(M, rhs=None, tol_rel: float = 1e-10, basis: bool = True,
     if s_max is None:
         s_max = spectral_norm(M)
     thr = tol_rel * max(s_max, 1e-300) * max(r, n, 1)
-    kept_margin, dropped_margin = np.inf, 0.0
     if r == 0:
         N = np.eye(n) if basis else None
-        return SweepResult(0, N, None if rhs is None else np.zeros(n), kept_margin,
-                           dropped_margin, thr)
+        return SweepResult(0, N, None if rhs is None else np.zeros(n), np.inf, 0.0, thr)
     perm = row_order(M)
     M = M[perm]
     b = None if rhs is None else np.asarray(rhs, float)[perm]
@@ -124,20 +122,29 @@ def sweep_null_space(M, rhs=None, tol_rel: float = 1e-10, basis: bool = True,
     order = touched[np.argsort(first[touched], kind="stable")]
     slot = np.full(n, -1, dtype=np.int64)
     slot[order] = np.arange(order.size)
+    fw = _forward_pass(M, b, first, last, order, slot, thr, chunk, basis or b is not None)
+    rank = fw["rank"]
+    N, step = None, None
+    if fw["steps"] is not None:
+        N, step = _backward_pass(fw, n, n - rank, order, last, basis, b is not None)
+    return SweepResult(rank, N, step, fw["kept_margin"], fw["dropped_margin"], thr,
+                       fw["max_live"])
+
+
+def _forward_pass(M, b, first, last, order, slot, thr, chunk, record) -> dict:
+    """The rows in chunks: the rank, the rank decisions' margins, and (``record``) each
+    step's transform. Z (|stored|, k): the live null vectors on the frontier slots only
+    (``stored``); pf: the affine step on those slots (for the residual of the rows to
+    come). With X = [Z 0; 0 I_new] a step's live vectors become X T and the vectors it
+    finalises X F; y is the step's part of the affine step (X y)."""
+    r = M.shape[0]
     nt = order.size
-    # Forward pass. Z (|stored|, k): the live null vectors on the frontier slots only
-    # (`stored`); pf: the affine step on those slots (for the residual of the rows to
-    # come). Each step records its transform: with X = [Z 0; 0 I_new] the live
-    # vectors become X T and the vectors finalised here are X F; y is the step's
-    # part of the affine step (X y).
     stored = np.zeros(0, dtype=np.int64)
     Z = np.zeros((0, 0))
     where = np.full(nt, -1, dtype=np.int64)
     pf = np.zeros(nt) if b is not None else None
-    steps = []
-    record = basis or b is not None
-    rank = 0
-    max_live = 0
+    steps = [] if record else None
+    rank, max_live, kept_margin, dropped_margin = 0, 0, np.inf, 0.0
     indptr, indices = M.indptr, M.indices
     for s0 in range(0, r, chunk):
         s1 = min(r, s0 + chunk)
@@ -165,52 +172,61 @@ def sweep_null_space(M, rhs=None, tol_rel: float = 1e-10, basis: bool = True,
         if pf is not None:
             y = Vt[:rho].T @ ((U[:, :rho].T @ (b[s0:s1] - B @ pf[sl])) / sig[:rho])
             pf[rows_x] += Zx @ y
-        Vn = Vt[rho:].T                                      # null of W: (k + n_new, k')
         front = last[order[rows_x]] >= s1                    # slots used by a later row
-        ZF = Zx[front] @ Vn
-        if Vn.shape[1] and front.any():
-            _, sf, vft = np.linalg.svd(ZF, full_matrices=True)
-            lv = int((sf > config.SWEEP_LIVE_TOL).sum())
-            Mx = Vn @ vft.T
-        else:
-            lv, Mx = 0, Vn
-        T, F = Mx[:, :lv], Mx[:, lv:]
+        T, F = _split_live(Zx[front], Vt[rho:].T)
         Z = Zx[front] @ T
         stored = rows_x[front]
         if record:
             steps.append((new_slots, k, T, F, y))
-    d = n - rank
-    N = None
-    step = None
-    if record:
-        # Backward pass: Q (k_s, D) expresses the vectors finalised after step s in
-        # the live vectors of step s; g (k_s,) the rest of the affine step likewise
-        N = np.zeros((n, d)) if basis else None
-        p = np.zeros(nt) if b is not None else None
-        kS = Z.shape[1]
-        n_final = sum(F.shape[1] for *_x, F, _y in steps) + kS
-        col = n_final - kS                                   # the last live ones are final
-        Q = np.eye(kS)
-        g = np.zeros(kS)
-        for new_slots, k, T, F, y in reversed(steps):
-            col -= F.shape[1]
-            top = np.hstack([F[:k], T[:k] @ Q])
-            if basis and new_slots.size:
-                N[order[new_slots], col:n_final] = np.hstack([F[k:], T[k:] @ Q])
-            if p is not None:
-                tg = T @ g
-                p[new_slots] = y[k:] + tg[k:]
-                g = y[:k] + tg[:k]
-            Q = top
-        assert col == 0 and Q.shape[0] == 0, (col, Q.shape)
-        untouched = np.flatnonzero(last < 0)
-        if basis:
-            N[untouched, n_final + np.arange(untouched.size)] = 1.0
-        assert n_final + untouched.size == d, (n_final, untouched.size, d)
+    return {"rank": rank, "kept_margin": kept_margin, "dropped_margin": dropped_margin,
+            "max_live": max_live, "steps": steps, "Z": Z, "nt": nt}
+
+
+def _split_live(Zfront, Vn):
+    """(T, F): the null vectors Vn (k + n_new, k') of a step rotated so that the first
+    ones still touch the frontier (live: X T) and the rest do not (final: X F)."""
+    ZF = Zfront @ Vn
+    if Vn.shape[1] and Zfront.shape[0]:
+        _, sf, vft = np.linalg.svd(ZF, full_matrices=True)
+        lv = int((sf > config.SWEEP_LIVE_TOL).sum())
+        Mx = Vn @ vft.T
+    else:
+        lv, Mx = 0, Vn
+    return Mx[:, :lv], Mx[:, lv:]
+
+
+def _backward_pass(fw, n, d, order, last, basis, affine):
+    """(N (n, d) or None, step (n,) or None) from the recorded steps: Q (k_s, D)
+    expresses the vectors finalised after step s in the live vectors of step s; g
+    (k_s,) the rest of the affine step likewise."""
+    steps, nt = fw["steps"], fw["nt"]
+    N = np.zeros((n, d)) if basis else None
+    p = np.zeros(nt) if affine else None
+    kS = fw["Z"].shape[1]
+    n_final = sum(F.shape[1] for *_x, F, _y in steps) + kS
+    col = n_final - kS                                   # the last live ones are final
+    Q = np.eye(kS)
+    g = np.zeros(kS)
+    for new_slots, k, T, F, y in reversed(steps):
+        col -= F.shape[1]
+        top = np.hstack([F[:k], T[:k] @ Q])
+        if basis and new_slots.size:
+            N[order[new_slots], col:n_final] = np.hstack([F[k:], T[k:] @ Q])
         if p is not None:
-            step = np.zeros(n)
-            step[order] = p
-    return SweepResult(rank, N, step, kept_margin, dropped_margin, thr, max_live)
+            tg = T @ g
+            p[new_slots] = y[k:] + tg[k:]
+            g = y[:k] + tg[:k]
+        Q = top
+    assert col == 0 and Q.shape[0] == 0, (col, Q.shape)
+    untouched = np.flatnonzero(last < 0)
+    if basis:
+        N[untouched, n_final + np.arange(untouched.size)] = 1.0
+    assert n_final + untouched.size == d, (n_final, untouched.size, d)
+    step = None
+    if p is not None:
+        step = np.zeros(n)
+        step[order] = p
+    return N, step
 
 
 # ----------------------------------------------------------------------------

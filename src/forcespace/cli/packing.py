@@ -38,8 +38,8 @@ def register(sub):
                         "dashed (the paper's Fig. 2)")
     p.add_argument("--seed", type=int, default=0,
                    help="with --difference: seed of the random direction picking the vertices")
-    from .space import _add_problem_args
-    _add_problem_args(p)
+    from .space import add_problem_args
+    add_problem_args(p)
     p.set_defaults(func=cmd_draw)
 
 

@@ -16,7 +16,7 @@ def load_problem(path, slice_height=None, full=False, gap_tol=float("inf"), mu=N
     return packing, problem_for(packing, slice_height, full, gap_tol, mu, source=str(path))
 
 
-def _add_problem_args(p):
+def add_problem_args(p):
     """--slice/--full (a mutually exclusive group, returned), --gap-tol, --mu."""
     g = p.add_mutually_exclusive_group()
     g.add_argument("--slice", type=float, metavar="H", default=None,
@@ -170,7 +170,7 @@ def cmd_select(args) -> int:
 def register(subparsers) -> None:
     p = subparsers.add_parser("analyze", help="exact analysis of the force ensemble S (LPs)")
     p.add_argument("packing", metavar="PACK.h5")
-    _add_problem_args(p)
+    add_problem_args(p)
     p.add_argument("--clusters", action="store_true",
                    help="decompose the indeterminacy into elementary clusters (sizes, density "
                         "rho per interior disk, percolating domains)")
@@ -181,7 +181,7 @@ def register(subparsers) -> None:
 
     p = subparsers.add_parser("sample", help="sample S (resumable: rerun to continue)")
     p.add_argument("packing", metavar="PACK.h5")
-    _add_problem_args(p)
+    add_problem_args(p)
     p.add_argument("--sampler", choices=("relax", "hit-and-run"), required=True)
     p.add_argument("-n", type=int, required=True, help="total number of samples wanted")
     p.add_argument("-o", "--output", required=True, metavar="ENS.h5")
@@ -205,7 +205,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("section", help="a 2-D cross-section of S through the jammed "
                               "network (white inside S, grey by Coulomb violation)")
     p.add_argument("packing", metavar="PACK.h5")
-    _add_problem_args(p)
+    add_problem_args(p)
     p.add_argument("-n", type=int, default=201, help="grid points per axis (default 201)")
     p.add_argument("--seed", type=int, default=0, help="seed of the two random directions")
     p.add_argument("-o", "--output", required=True, help="figure (.png also writes .pdf)")
@@ -216,7 +216,7 @@ def register(subparsers) -> None:
         "select", help="the network linear springs select in S (minimum complementary "
         "energy, a QP over S) -> soft-network file for `forcespace distance`")
     p.add_argument("packing", metavar="PACK.h5")
-    g = _add_problem_args(p)
+    g = add_problem_args(p)
     g.add_argument("--plate", action="store_true",
                    help="whole packing under its load-controlled top plate (the S of the "
                         "LIGGGHTS/pymunk runs and of `forcespace distance`)")

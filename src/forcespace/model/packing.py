@@ -176,21 +176,13 @@ class Packing:
         return f
 
     def net_forces(self, fn=None, ft=None):
-        """Net force (n, 2) and torque (n,) on every disk, and net vertical force on TOP.
-
-        Uses the packing's forces unless ``fn``/``ft`` are given.
-        """
+        """Net force (n, 2) and torque (n,) on every disk (contacts and body forces), and
+        the net vertical force on TOP. Uses the packing's forces unless ``fn``/``ft`` are
+        given (:func:`contact_sums`)."""
         fn = self.fn if fn is None else fn
         ft = self.ft if ft is None else ft
+        force, torque = contact_sums(self, fn, ft, external=True)
         F = fn[:, None] * self.normal + ft[:, None] * self.tangent
-        n = self.n_disks
-        force = self.external_forces()
-        torque = np.zeros(n)
-        ma, mb = self.a >= 0, self.b >= 0
-        np.add.at(force, self.b[mb], F[mb])
-        np.add.at(force, self.a[ma], -F[ma])
-        np.add.at(torque, self.b[mb], -self.r[self.b[mb]] * ft[mb])
-        np.add.at(torque, self.a[ma], -self.r[self.a[ma]] * ft[ma])
         top = (self.b == TOP)
         plate = float(F[top, 1].sum() - self.top_force) if np.isfinite(self.y_top) else 0.0
         return force, torque, plate
@@ -284,6 +276,30 @@ class Packing:
         if not (np.isfinite(self.y_top) and np.isfinite(self.y_bottom)):
             return None
         return float(np.pi * (self.r**2).sum() / (self.width * (self.y_top - self.y_bottom)))
+
+
+def contact_sums(p: Packing, fn, ft, contacts=None, external: bool = False):
+    """The force (n, 2) [F0] and torque (n,) [F0 R] that contacts exert on the disks:
+    contact k pushes ``fn n + ft t`` on body b and its negative on body a, and turns
+    both by ``-r ft``. ``contacts``: a mask or indices of the contacts that count
+    (default all); ``fn, ft`` (Nc,) [F0]; ``external``: start from the body forces
+    (gravity). THE force assembly of forcespace: body forces first, then the contacts
+    one by one (b, then a), so every caller gets the same bits."""
+    fn = np.asarray(fn, float)
+    ft = np.asarray(ft, float)
+    F = fn[:, None] * p.normal + ft[:, None] * p.tangent
+    k = np.arange(p.n_contacts) if contacts is None else np.asarray(contacts)
+    if k.dtype == bool:
+        k = np.flatnonzero(k)
+    body = np.column_stack([p.b[k], p.a[k]]).ravel()        # b then a, contact by contact
+    push = np.stack([F[k], -F[k]], axis=1).reshape(-1, 2)
+    turn = np.repeat(ft[k], 2)
+    disk = body >= 0
+    force = p.external_forces() if external else np.zeros((p.n_disks, 2))
+    torque = np.zeros(p.n_disks)
+    np.add.at(force, body[disk], push[disk])
+    np.add.at(torque, body[disk], -p.r[body[disk]] * turn[disk])
+    return force, torque
 
 
 def check_packing(p: Packing, source="packing") -> Packing:

@@ -45,7 +45,7 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..linalg import project_on_range
-from .packing import Packing, check_packing
+from .packing import Packing, check_packing, contact_sums
 from .walls import BOTTOM, LEFT, RIGHT, TOP, contact_mu_array
 
 
@@ -268,6 +268,64 @@ def _centre_y(p: Packing) -> float:
     return 0.5 * (p.y.min() + p.y.max())
 
 
+def _classify_contacts(p: Packing, interior, rat, unknown_walls, gap_tol, support_mask):
+    """Masks (Nc,) of the unknown contacts (between two interior disks, or between an
+    interior disk and a support: a wall of ``unknown_walls`` or a disk of
+    ``support_mask``) and of the load contacts (every other closed contact of an
+    interior disk). Contacts of rattlers and open contacts (gap > gap_tol) are neither."""
+    a = np.asarray(p.a, np.int64)
+    bb = np.asarray(p.b, np.int64)
+    closed = np.asarray(p.gap, float) <= gap_tol
+    is_int = lambda idx: (idx >= 0) & interior[np.maximum(idx, 0)]  # noqa: E731
+    is_rat = lambda idx: (idx >= 0) & rat[np.maximum(idx, 0)]  # noqa: E731
+    ia, ib = is_int(a), is_int(bb)
+    touches = (ia | ib) & closed & ~is_rat(a) & ~is_rat(bb)
+    wall_unknown = np.zeros_like(touches)
+    for w in unknown_walls:
+        wall_unknown |= (a == w) | (bb == w)
+    if support_mask is not None:
+        sup = np.asarray(support_mask, bool) & ~interior
+        is_sup = lambda idx: (idx >= 0) & sup[np.maximum(idx, 0)]  # noqa: E731
+        wall_unknown |= is_sup(a) | is_sup(bb)
+    unknown = touches & ((ia & ib) | (wall_unknown & (ia | ib)))
+    return unknown, touches & ~unknown
+
+
+def _equilibrium_matrix(p: Packing, contacts, interior, local) -> sp.csr_matrix:
+    """A (3n, 2m): rows 3i, 3i+1, 3i+2 = x force, y force, torque / r_i of interior disk
+    i; columns 2j, 2j+1 = fn, ft of unknown contact j (module docstring)."""
+    nrm = np.asarray(p.normal, float)
+    tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
+    n = int(interior.sum())
+    rows, cols, vals = [], [], []
+    for j, k in enumerate(contacts):
+        for body, sgn in ((p.b[k], 1.0), (p.a[k], -1.0)):
+            if body < 0 or not interior[body]:
+                continue
+            i = local[body]
+            rows += [3 * i, 3 * i + 1, 3 * i, 3 * i + 1, 3 * i + 2]
+            cols += [2 * j, 2 * j, 2 * j + 1, 2 * j + 1, 2 * j + 1]
+            vals += [sgn * nrm[k, 0], sgn * nrm[k, 1], sgn * tng[k, 0], sgn * tng[k, 1], -1.0]
+    A = sp.csr_matrix((vals, (rows, cols)), shape=(3 * n, 2 * contacts.size))
+    A.sum_duplicates()
+    return A
+
+
+def _consistent_loads(A, b, mu) -> np.ndarray:
+    """b projected onto range(A) over the columns that are really unknown.
+
+    A x = b is solvable only if b lies in range(A); a jammed packing balances its
+    loads only to the engine's tolerance, so b is replaced by its least-squares
+    projection (the caller records the removed part). ft of a frictionless contact is
+    fixed at 0, so a load component only it could balance is an inconsistency, not
+    something S may absorb."""
+    m = mu.size
+    unknown_cols = np.flatnonzero(np.repeat(mu > 0.0, 2) | (np.arange(2 * m) % 2 == 0))
+    if unknown_cols.size == 0:
+        return np.zeros_like(b)
+    return project_on_range(A[:, unknown_cols], b)
+
+
 def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
                   gap_tol: float = np.inf, source: str = "", support_mask=None,
                   rattlers=None, mu: float | None = None) -> StaticsProblem:
@@ -295,73 +353,21 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     local[disks] = np.arange(disks.size)
     n = disks.size
 
-    a = np.asarray(p.a, np.int64)
-    bb = np.asarray(p.b, np.int64)
-    closed = np.asarray(p.gap, float) <= gap_tol
-    is_int = lambda idx: (idx >= 0) & interior[np.maximum(idx, 0)]  # noqa: E731
-    is_rat = lambda idx: (idx >= 0) & rat[np.maximum(idx, 0)]  # noqa: E731
-    ia, ib = is_int(a), is_int(bb)
-    touches = (ia | ib) & closed & ~is_rat(a) & ~is_rat(bb)
-    wall_unknown = np.zeros_like(touches)
-    for w in unknown_walls:
-        wall_unknown |= (a == w) | (bb == w)
-    if support_mask is not None:
-        sup = np.asarray(support_mask, bool) & ~interior
-        is_sup = lambda idx: (idx >= 0) & sup[np.maximum(idx, 0)]  # noqa: E731
-        wall_unknown |= is_sup(a) | is_sup(bb)
-    unknown = touches & ((ia & ib) | (wall_unknown & (ia | ib)))
-    load = touches & ~unknown
+    unknown, load = _classify_contacts(p, interior, rat, unknown_walls, gap_tol, support_mask)
     contacts = np.flatnonzero(unknown)
     m = contacts.size
-
     mu_disks = p.mu if mu_override is None else mu_override
-    mu = contact_mu_array(a[contacts], bb[contacts], mu_disks, p.plate_mu)
-    nrm = np.asarray(p.normal, float)
-    tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
+    mu = contact_mu_array(p.a[contacts], p.b[contacts], mu_disks, p.plate_mu)
     r = np.asarray(p.r, float)
-
-    # ---- A ----
-    rows, cols, vals = [], [], []
-    for j, k in enumerate(contacts):
-        for body, sgn in ((bb[k], 1.0), (a[k], -1.0)):
-            if body < 0 or not interior[body]:
-                continue
-            i = local[body]
-            rows += [3 * i, 3 * i + 1, 3 * i, 3 * i + 1, 3 * i + 2]
-            cols += [2 * j, 2 * j, 2 * j + 1, 2 * j + 1, 2 * j + 1]
-            vals += [sgn * nrm[k, 0], sgn * nrm[k, 1], sgn * tng[k, 0], sgn * tng[k, 1], -1.0]
-    A = sp.csr_matrix((vals, (rows, cols)), shape=(3 * n, 2 * m))
-    A.sum_duplicates()
-
-    # ---- loads ----
-    load_force = p.external_forces()[disks].copy()
-    load_torque = np.zeros(n)
-    F = p.fn[:, None] * nrm + p.ft[:, None] * tng
-    for k in np.flatnonzero(load):
-        for body, sgn in ((bb[k], 1.0), (a[k], -1.0)):
-            if body >= 0 and interior[body]:
-                i = local[body]
-                load_force[i] += sgn * F[k]
-                load_torque[i] += -r[body] * p.ft[k]
+    A = _equilibrium_matrix(p, contacts, interior, local)
+    # loads: body forces and the fixed contact forces
+    load_force, load_torque = contact_sums(p, p.fn, p.ft, load, external=True)
     bvec = np.empty(3 * n)
-    bvec[0::3] = -load_force[:, 0]
-    bvec[1::3] = -load_force[:, 1]
-    bvec[2::3] = -load_torque / r[disks]
-
-    # ---- consistency of the loads ----
-    # A x = b is solvable only if b lies in range(A); a jammed packing balances
-    # its loads only to the engine's tolerance, so b is replaced by its
-    # least-squares projection onto range(A) and the removed part is recorded
-    # (meta["load_inconsistency"], relative to the mean force).
-    # Only the columns that are really unknown count: ft of a frictionless
-    # contact is fixed at 0, and a load component only it could balance is an
-    # inconsistency, not something S may absorb.
+    bvec[0::3] = -load_force[disks, 0]
+    bvec[1::3] = -load_force[disks, 1]
+    bvec[2::3] = -load_torque[disks] / r[disks]
     b_raw = bvec.copy()
-    unknown_cols = np.flatnonzero(np.repeat(mu > 0.0, 2) | (np.arange(2 * m) % 2 == 0))
-    if unknown_cols.size:
-        bvec = project_on_range(A[:, unknown_cols], bvec)
-    else:
-        bvec = np.zeros_like(bvec)
+    bvec = _consistent_loads(A, bvec, mu)
     inconsistency = float(np.abs(b_raw - bvec).max(initial=0.0))
 
     x_j = np.empty(2 * m)

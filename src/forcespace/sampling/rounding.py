@@ -123,21 +123,7 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7, minmu: float = 1e-8,
         if res < tol * (1 + bnrm) and rmu <= minmu:
             ok = True
             break
-        YQ = y[:, None] * Q
-        Gm = YQ * YQ.T
-        y2h = 2 * yh
-        Gm[np.diag_indices(p)] += np.maximum(1e-12, y2h * z)
-        YA = y[:, None] * A
-        fac = _spd_factor(Gm)
-        T = _spd_solve(fac, (h + z)[:, None] * YA)
-        ATP = (y2h[:, None] * T - YA).T
-        R3Dy = R3 / y
-        R23 = R2 - R3Dy
-        dx = np.linalg.solve(ATP @ A, R1 + ATP @ R23)
-        Adx = A @ dx
-        dyDy = _spd_solve(fac, y2h * (Adx - R23))
-        dy = y * dyDy
-        dz = R3Dy - z * dyDy
+        dx, Adx, dy, dyDy, dz = _mve_direction(A, Q, y, z, h, yh, R1, R2, R3)
         ax = -1.0 / min(np.min(-Adx / bmAx), -0.5)
         ay = -1.0 / min(np.min(dyDy), -0.5)
         az = -1.0 / min(np.min(dz / z), -0.5)
@@ -149,6 +135,26 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7, minmu: float = 1e-8,
     E2 = np.linalg.inv(A.T @ (y[:, None] * A))
     E2 = 0.5 * (E2 + E2.T)
     return x + y0, E2, ok, it
+
+
+def _mve_direction(A, Q, y, z, h, yh, R1, R2, R3):
+    """The primal-dual Newton direction (dx, A dx, dy, dy / y, dz) of Zhang & Gao's MVE
+    iteration: one Cholesky factorisation of the p x p matrix Gm, used for both solves."""
+    p = A.shape[0]
+    YQ = y[:, None] * Q
+    Gm = YQ * YQ.T
+    y2h = 2 * yh
+    Gm[np.diag_indices(p)] += np.maximum(1e-12, y2h * z)
+    YA = y[:, None] * A
+    fac = _spd_factor(Gm)
+    T = _spd_solve(fac, (h + z)[:, None] * YA)
+    ATP = (y2h[:, None] * T - YA).T
+    R3Dy = R3 / y
+    R23 = R2 - R3Dy
+    dx = np.linalg.solve(ATP @ A, R1 + ATP @ R23)
+    Adx = A @ dx
+    dyDy = _spd_solve(fac, y2h * (Adx - R23))
+    return dx, Adx, y * dyDy, dyDy, R3Dy - z * dyDy
 
 
 def john_ellipsoid(H, s, y0, maxiter: int = 300, tol: float = 0.05, callback=None,
@@ -204,18 +210,8 @@ def john_ellipsoid(H, s, y0, maxiter: int = 300, tol: float = 0.05, callback=Non
         dec = float(np.sqrt(max(-g @ dy, 0.0)))
         if callback is not None:
             callback(it, excess, dec)
-        if dec > CENTRED:                             # centre first: Newton step,
-            Hdy = H @ dy                              # damped outside the quadratic region
-            pos = Hdy > 0
-            amax = float(np.min(r[pos] / Hdy[pos])) if pos.any() else np.inf
-            a = min(1.0 / (1.0 + dec) if dec > 0.25 else 1.0, 0.9 * amax)
-            phi0 = -w @ np.log(r)
-            while a > 1e-12:
-                rt = r - a * Hdy
-                if np.all(rt > 0) and -w @ np.log(rt) <= phi0 + 1e-4 * a * (g @ dy):
-                    break
-                a *= 0.5
-            y = y + a * dy
+        if dec > CENTRED:                             # centre first: a Newton step
+            y = _damped_step(H, r, y, w, g, dy, dec)
             r = s - H @ y
             continue
         X = sla.solve_triangular(cf[0], At.T, lower=True, check_finite=False)
@@ -234,6 +230,23 @@ def john_ellipsoid(H, s, y0, maxiter: int = 300, tol: float = 0.05, callback=Non
     E2 = 0.5 * (E2 + E2.T)
     E2 /= max(float(((At @ E2) * At).sum(1).max()), 1e-300)
     return y, E2, ok, it
+
+
+def _damped_step(H, r, y, w, g, dy, dec):
+    """y + a dy: a Newton step towards the w-weighted analytic centre of {H y <= s}
+    (slacks r), damped outside the quadratic region (a = 1 / (1 + dec) for a Newton
+    decrement dec > 1/4), kept strictly inside, backtracked on sum w log r."""
+    Hdy = H @ dy
+    pos = Hdy > 0
+    amax = float(np.min(r[pos] / Hdy[pos])) if pos.any() else np.inf
+    a = min(1.0 / (1.0 + dec) if dec > 0.25 else 1.0, 0.9 * amax)
+    phi0 = -w @ np.log(r)
+    while a > 1e-12:
+        rt = r - a * Hdy
+        if np.all(rt > 0) and -w @ np.log(rt) <= phi0 + 1e-4 * a * (g @ dy):
+            break
+        a *= 0.5
+    return y + a * dy
 
 
 ROUNDING_METHODS = ("mve", "john")
