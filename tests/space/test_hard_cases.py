@@ -14,6 +14,7 @@ from forcespace.errors import InputError, NumericalError
 from forcespace.engine.protocol import build_packing
 from forcespace.space.force_space import ForceSpace
 from forcespace.model.scene import validate
+import forcespace as fs
 from forcespace.model.problem import full_problem, plate_problem
 
 from paths import DATA  # noqa: E402
@@ -79,6 +80,22 @@ def test_mass_ratio_1e6_static_solve_converges():
 def test_extreme_friction(mu):
     p, an = jam_and_check(scene(**{"physics.mu": mu}))
     assert np.all(np.abs(p.ft) <= mu * p.fn * (1 + 1e-9) + 1e-12)
+
+
+@pytest.mark.parametrize("seed", [6, 9])
+def test_mu_1e_minus_9_full_problem_is_analysed_and_sampled(seed):
+    """Coulomb cones 1e-9 wide: HiGHS' presolve called these S empty (seed 9) and
+    the implicit-equality LP infeasible (seed 6), exit 3; the jammed network is in S
+    to 1e-10 <Fn>, so S is non-empty and every LP that starts from a point of S is
+    feasible."""
+    p = build_packing(scene(**{"physics.mu": 1e-9, "scene.seed": seed}), show_progress=False)
+    prob = full_problem(p)
+    assert prob.violation(prob.x_jammed) < 1e-10
+    an = ForceSpace().compute(prob)
+    assert an.success and an.feasible and an.bounded and an.dim is not None
+    assert prob.violation(an.centre) <= 1e-9
+    ens = fs.HitAndRun(n=6, seed=1).compute(prob).ensemble
+    assert ens.violations.max() <= 1e-9
 
 
 def test_load_scale_1e_minus_12_and_1e12_give_the_same_packing():

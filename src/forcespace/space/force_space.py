@@ -80,13 +80,13 @@ def _check_bounded(problem: StaticsProblem):
     Aub = sp.vstack([G, sp.csr_matrix(-c)]).tocsr()
     bub = np.concatenate([np.zeros(G.shape[0]), [1.0]])
     res = solve_lp(c, Aub, bub, problem.A, np.zeros(problem.A.shape[0]), bounds_list(lo, hi),
-              attempts=attempts_for(problem))
+                   attempts=attempts_for(problem), known_feasible=True)   # d = 0 is feasible
     if res.status != 0:
         raise NumericalError(f"recession-cone LP failed: {res.message}")
     if -res.fun > config.UNBOUNDED_TOL:
         return False, np.inf, res.x / max(np.abs(res.x).max(), 1e-300)
     r2 = solve_lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, bounds_list(lo, hi),
-             attempts=attempts_for(problem))
+                  attempts=attempts_for(problem), known_feasible=True)
     if r2.status != 0:
         raise NumericalError(f"max sum fn LP failed: {r2.message}")
     return True, float(-r2.fun), None
@@ -114,7 +114,7 @@ def _implicit_equalities(problem: StaticsProblem, tol: float):
         c = np.concatenate([np.zeros(m2), -np.ones(q)])
         res = solve_lp(c, Aub, np.zeros(p), sp.hstack([problem.A, sp.csr_matrix((problem.A.shape[0], q))]),
                   problem.b, bounds_list(lo, hi) + [(0.0, scale)] * q,
-                  attempts=attempts_for(problem))
+                  attempts=attempts_for(problem), known_feasible=True)
         if res.status != 0:
             raise NumericalError(f"implicit-equality LP failed: {res.message}")
         slack = -(G @ res.x[:m2])
@@ -181,7 +181,8 @@ def _column_ranges(problem: StaticsProblem, N=None, xa=None, columns=None):
         for side, sgn in ((0, 1.0), (1, -1.0)):
             c = np.zeros(m2)
             c[col] = sgn
-            res = solve_lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, bnds)
+            res = solve_lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, bnds,
+                           known_feasible=True)
             if res.status == 3:          # unbounded in this direction
                 rng[col, side] = -sgn * np.inf
                 continue
@@ -221,7 +222,7 @@ def _chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
     # slice, dim S 1714: 11.3 s against 116 s for the default, same radius to 2.5e-7)
     res = solve_lp(c, Aub, np.zeros(free.size), Aeq, rhs,
               bounds_list(lo, hi) + [(0.0, 10.0 * problem.force_scale * max(1, m2))],
-              attempts=attempts_for(problem))
+              attempts=attempts_for(problem), known_feasible=True)
     if res.status != 0:
         raise NumericalError(f"Chebyshev-centre LP failed: {res.message}")
     return res.x[:m2], float(res.x[-1])

@@ -33,14 +33,25 @@ def attempts_for(problem: StaticsProblem):
     return LP_ATTEMPTS_LARGE if problem.n_columns >= config.SWEEP_MIN_COLUMNS else LP_ATTEMPTS
 
 
-def solve_lp(c, A_ub=None, b_ub=None, A_eq=None, b_eq=None, bounds=None, attempts=None):
+def solve_lp(c, A_ub=None, b_ub=None, A_eq=None, b_eq=None, bounds=None, attempts=None,
+             known_feasible: bool = False):
     """scipy/HiGHS linprog; status 0 optimal, 2 infeasible, 3 unbounded are answers,
     anything else is retried with the next of ``attempts`` (default LP_ATTEMPTS; the
-    last result is returned)."""
+    last result is returned). "Infeasible" is confirmed by dual simplex without
+    presolve before it is believed: HiGHS' presolve called feasible slices infeasible
+    at mu = 1e-9, whose Coulomb cones are 1e-9 wide. ``known_feasible``: the caller
+    holds a feasible point (a point of S with zero slacks), so "infeasible" is never an
+    answer and every attempt is tried."""
+    answers = (0, 3) if known_feasible else (0, 2, 3)
     for method, options in (LP_ATTEMPTS if attempts is None else attempts):
         res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds,
                       method=method, options=options)
-        if res.status in (0, 2, 3):
+        if res.status == 2 and options.get("presolve", True):
+            check = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=A_eq, b_eq=b_eq, bounds=bounds,
+                            method="highs-ds", options={"presolve": False})
+            if check.status in (0, 3):
+                res = check
+        if res.status in answers:
             break
     return res
 
