@@ -32,6 +32,14 @@ IMPLICIT_TOL = 1e-9         # [<Fn>] an inequality whose slack never exceeds thi
                             # implicit equality (a contact forced to slide or to carry nothing)
 VARY_TOL = 1e-6             # [<Fn>] a contact varies in S if its fn or ft can change by more
 UNBOUNDED_TOL = 1e-7        # [1] recession-cone LP optimum above this: S is unbounded
+INTERIOR_TOL = 1e-10        # [<Fn>] feasibility/optimality of the interior-point LPs without
+                            # crossover that large analyses use (SWEEP_MIN_COLUMNS and up)
+INTERIOR_CAP = 1e-5         # [<Fn>] slack cap of the one interior-point LP that finds the rows
+                            # strict somewhere in S: a cap below every row's largest slack in a
+                            # common point makes that point optimal (one solve decides all;
+                            # 5000-disk slice: smallest such slack 4e-5)
+INTERIOR_STRICT = 1e-8      # [<Fn>] slack that proves a row strict at the interior point: 100x
+                            # INTERIOR_TOL; rows below it go to the exact (simplex) test
 CIRCUIT_TOL = 1e-6          # [1] entries of a fundamental circuit below this x its largest are
                             # round-off couplings, not support
 SUPPORT_TOL = 1e-7          # [1] entries of an L1-minimal circuit below this x its largest

@@ -32,12 +32,12 @@ def add_problem_args(p):
     return g
 
 
-def analysed(problem, ranges: bool = False):
+def analysed(problem, ranges: bool = False, progress: bool = False):
     """ForceSpace(ranges).compute(problem); NumericalError (exit 3) if an LP failed."""
     from ..errors import NumericalError
     from ..space.force_space import ForceSpace
 
-    S = ForceSpace(ranges=ranges, centre=True).compute(problem)
+    S = ForceSpace(ranges=ranges, centre=True, progress=progress).compute(problem)
     if not S.success:
         raise NumericalError(S.message)
     return S
@@ -48,7 +48,7 @@ def cmd_analyze(args) -> int:
 
     t0 = time.perf_counter()
     packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
-    S = analysed(problem, ranges=args.ranges)
+    S = analysed(problem, ranges=args.ranges, progress=not args.quiet)
     out = {"packing": str(args.packing), "kind": problem.kind, "slice_height": problem.height,
            "packing_mu": packing.mu, "mu_override": args.mu, **S.summary(),
            "z": packing.coordination()}
@@ -177,6 +177,7 @@ def register(subparsers) -> None:
     p.add_argument("--ranges", action="store_true",
                    help="also compute per-contact min/max of fn and ft (4 LPs per contact)")
     p.add_argument("--json", action="store_true", help="print JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_analyze)
 
     p = subparsers.add_parser("sample", help="sample S (resumable: rerun to continue)")

@@ -20,8 +20,10 @@ from .. import config
 from ..errors import InputError, NumericalError
 from ..linalg import affine_hull, null_basis, rank
 from ..model.problem import StaticsProblem
+from ..progress import progress as progress_bar
 from ..result import Computed
-from .lp import attempts_for, bounds_list, eq_system, solve_lp, unit_problem
+from .lp import (attempts_for, bounds_list, eq_system, solve_lp, solve_lp_interior,
+                 unit_problem)
 
 
 # ----------------------------------------------------------------------------
@@ -92,19 +94,20 @@ def _check_bounded(problem: StaticsProblem):
     return True, float(-r2.fun), None
 
 
-def _implicit_equalities(problem: StaticsProblem, tol: float):
+def _implicit_equalities(problem: StaticsProblem, tol: float, undecided=None):
     """Indices of inequality rows of ``problem.inequalities()`` tight on all of S.
 
     Iterative slack LP (Fukuda's FAQ): maximise sum of slacks s_j in
-    [0, <Fn>] over the undecided rows; rows with s_j > tol*<Fn> are proven
-    strict somewhere; stop when the optimum is 0 (the rest are implicit).
+    [0, <Fn>] over the undecided rows (default all; a mask (p,) otherwise); rows
+    with s_j > tol*<Fn> are proven strict somewhere; stop when the optimum is 0
+    (the rest are implicit).
     """
     G, _, _ = problem.inequalities()
     p = G.shape[0]
     lo, hi = problem.bounds()
     m2 = problem.n_columns
     scale = problem.force_scale
-    undecided = np.ones(p, dtype=bool)
+    undecided = np.ones(p, dtype=bool) if undecided is None else np.array(undecided, bool)
     thresh = tol * scale
     while undecided.any():
         idx = np.flatnonzero(undecided)
@@ -123,6 +126,42 @@ def _implicit_equalities(problem: StaticsProblem, tol: float):
             break
         undecided[strict] = False
     return np.flatnonzero(undecided)
+
+
+def _interior_strict_rows(problem: StaticsProblem):
+    """(x (2m,), strict (p,) bool), or None when the interior-point solve fails.
+
+    One LP without crossover: max sum s_j, G x + s <= 0, 0 <= s <= INTERIOR_CAP <Fn>,
+    x in S. If S has a point whose slack exceeds the cap on every row that is strict
+    somewhere (true when the cap is below every such row's slack at one point), every
+    optimum has all those rows at the cap, and the interior point (the relative interior
+    of the optimal face) shows them all at once; rows it leaves below INTERIOR_STRICT
+    are decided by the exact test. x is a point of S to INTERIOR_TOL <Fn>."""
+    G, _, _ = problem.inequalities()
+    p, m2, scale = G.shape[0], problem.n_columns, problem.force_scale
+    lo, hi = problem.bounds()
+    st, z = solve_lp_interior(
+        np.concatenate([np.zeros(m2), -np.ones(p)]), sp.hstack([G, sp.identity(p)]).tocsr(),
+        np.zeros(p), sp.hstack([problem.A, sp.csr_matrix((problem.A.shape[0], p))]).tocsr(),
+        problem.b, np.concatenate([lo, np.zeros(p)]),
+        np.concatenate([hi, np.full(p, config.INTERIOR_CAP * scale)]),
+        tol=config.INTERIOR_TOL * scale)
+    if st != 0:
+        return None
+    x = z[:m2]
+    return x, -(G @ x) > config.INTERIOR_STRICT * scale
+
+
+def _interior_max_sum_fn(problem: StaticsProblem):
+    """max sum fn over S by one interior-point LP without crossover, or None (unbounded,
+    or the solve failed: the caller then takes the exact recession-cone test)."""
+    G, _, _ = problem.inequalities()
+    lo, hi = problem.bounds()
+    c = np.zeros(problem.n_columns)
+    c[0::2] = -1.0
+    st, x = solve_lp_interior(c, G, np.zeros(G.shape[0]), problem.A, problem.b, lo, hi,
+                              tol=config.INTERIOR_TOL * problem.force_scale)
+    return float(-c @ x) if st == 0 else None
 
 
 def _varying(problem: StaticsProblem, N, max_sum_fn, radius, ranges=None) -> np.ndarray:
@@ -194,7 +233,8 @@ def _column_ranges(problem: StaticsProblem, N=None, xa=None, columns=None):
     return rng[0::2].copy(), rng[1::2].copy()
 
 
-def _chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
+def _chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None,
+                      interior: bool = False):
     """Centre of the largest ball inside S within its affine hull: (x (2m,), radius [F0]).
 
     Rows that are implicit equalities are kept as equalities; for the others
@@ -218,10 +258,17 @@ def _chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None):
     Aeq = sp.hstack([Eq, sp.csr_matrix((Eq.shape[0], 1))]).tocsr()
     c = np.zeros(m2 + 1)
     c[-1] = -1.0
+    r_max = 10.0 * problem.force_scale * max(1, m2)
+    if interior:        # any optimal point will do: no crossover to a vertex
+        st, z = solve_lp_interior(c, Aub, np.zeros(free.size), Aeq, rhs, np.append(lo, 0.0),
+                                  np.append(hi, r_max),
+                                  tol=config.INTERIOR_TOL * problem.force_scale)
+        if st == 0:
+            return z[:m2], float(z[-1])
     # large problems: interior point first, as for the other LPs of the analysis (5000-disk
     # slice, dim S 1714: 11.3 s against 116 s for the default, same radius to 2.5e-7)
     res = solve_lp(c, Aub, np.zeros(free.size), Aeq, rhs,
-              bounds_list(lo, hi) + [(0.0, 10.0 * problem.force_scale * max(1, m2))],
+              bounds_list(lo, hi) + [(0.0, r_max)],
               attempts=attempts_for(problem), known_feasible=True)
     if res.status != 0:
         raise NumericalError(f"Chebyshev-centre LP failed: {res.message}")
@@ -295,8 +342,9 @@ class ForceSpace(Computed):
     """
 
     def __init__(self, ranges: bool = False, centre: bool = True,
-                 tol: float = config.IMPLICIT_TOL):
+                 tol: float = config.IMPLICIT_TOL, progress: bool = False):
         self.ranges, self.centre_ball, self.tol = bool(ranges), bool(centre), float(tol)
+        self.progress = bool(progress)
         self.problem: StaticsProblem | None = None
         self._domains = None
 
@@ -310,12 +358,22 @@ class ForceSpace(Computed):
         P, s = unit_problem(problem)
         r = self._results
         r["force_scale"] = s
-        try:
-            _analyze(P, r, ranges=self.ranges, centre=self.centre_ball, tol=self.tol)
-        except NumericalError as exc:
-            self._finish(2, str(exc))
-        else:
-            self._finish(0, "analysis complete")
+        with progress_bar(total=100, desc="analysis of S", unit="%",
+                          disable=not self.progress) as bar:
+            done = []
+
+            def stage(name):
+                bar.update(round(100 * sum(STAGES[n] for n in done)) - bar.n)
+                bar.set_postfix_str(name)
+                done.append(name)
+            try:
+                _analyze(P, r, ranges=self.ranges, centre=self.centre_ball, tol=self.tol,
+                         stage=stage)
+            except NumericalError as exc:
+                self._finish(2, str(exc))
+            else:
+                self._finish(0, "analysis complete")
+                bar.update(100 - bar.n)
         for name in _SCALED:
             if r.get(name) is not None:
                 r[name] = r[name] * s
@@ -535,15 +593,26 @@ class ForceSpace(Computed):
                 f"feasible={r.get('feasible')}, bounded={r.get('bounded')}, dim={r.get('dim')}")
 
 
-def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol: float):
+# the stages of an analysis and their share of its time (5000-disk slice, CPU), for the
+# progress bar's estimate
+STAGES = {"feasibility and implicit equalities": 0.45, "boundedness": 0.15,
+          "affine hull": 0.1, "centre": 0.25, "ranges": 0.0, "varying contacts": 0.05}
+
+
+def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol: float,
+             stage=lambda name: None):
     """Fill ``out`` with the analysis of S of ``problem`` (at <Fn> = 1), in order:
     feasibility, boundedness, implicit equalities, affine hull, ranges, centre,
-    varying contacts. An LP failure raises NumericalError with ``out`` holding
-    what was reached."""
+    varying contacts; ``stage(name)`` is called as each begins. Large problems
+    (``config.SWEEP_MIN_COLUMNS`` columns and up) decide the strict rows, the largest
+    total force and the centre by interior-point LPs without crossover (one each),
+    then confirm the undecided rows by the exact test. An LP failure raises
+    NumericalError with ``out`` holding what was reached."""
     m2 = problem.n_columns
     fixed = problem.fixed_columns()
     free_cols = np.setdiff1d(np.arange(m2), fixed)
     out["n_unknowns"] = m2 - fixed.size
+    large = m2 >= config.SWEEP_MIN_COLUMNS
 
     def set_rank(rank_A):
         # rank over the unknowns (not ft of mu=0 contacts). [A; fixed] is block
@@ -556,17 +625,26 @@ def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol
                fn_range=None, ft_range=None, centre=None, radius=None, max_sum_fn=None,
                implicit_rows=None, implicit=[], sliding_contacts=None, zero_contacts=None,
                affine_point=None, affine_basis=None, varying=None)
-    feas, x0, diag = _check_feasible(problem)
+    stage("feasibility and implicit equalities")
+    interior = _interior_strict_rows(problem) if large else None
+    if interior is not None:
+        (x0, strict), feas = interior, True
+    else:
+        feas, x0, diag = _check_feasible(problem)
+        strict = None
     out["feasible"] = feas
     if not feas:
         set_rank(rank(problem.A[:, free_cols]))
         out["infeasibility"] = diag
         return
-    bounded, msum, rdir = _check_bounded(problem)
-    out.update(bounded=bounded, max_sum_fn=msum, recession_direction=rdir)
     G, owner, kind = problem.inequalities()
-    imp = _implicit_equalities(problem, tol)
+    imp = _implicit_equalities(problem, tol, None if strict is None else ~strict)
     out["implicit_rows"] = imp
+    stage("boundedness")
+    msum = _interior_max_sum_fn(problem) if large else None
+    bounded, msum, rdir = (True, msum, None) if msum is not None else _check_bounded(problem)
+    out.update(bounded=bounded, max_sum_fn=msum, recession_direction=rdir)
+    stage("affine hull")
     Eq, rhs = eq_system(problem, G[imp])
     # one point of S and the affine hull: x0 projected onto the hull (removes LP
     # round-off along the equalities), from the same SVD as the hull's basis
@@ -578,9 +656,12 @@ def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol
     out["implicit"], out["sliding_contacts"], out["zero_contacts"] = \
         _implicit_kinds(imp, owner, kind)
     if bounded and ranges:
+        stage("ranges")
         out["fn_range"], out["ft_range"] = _column_ranges(problem, N, xa)
     if bounded and centre:
-        out["centre"], out["radius"] = _chebyshev_centre(problem, N, imp)
+        stage("centre")
+        out["centre"], out["radius"] = _chebyshev_centre(problem, N, imp, interior=large)
+    stage("varying contacts")
     rngs = (out["fn_range"], out["ft_range"]) if out["fn_range"] is not None else None
     out["varying"] = _varying(problem, N, msum, out["radius"] or 0.0, rngs)
 

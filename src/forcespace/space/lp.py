@@ -82,3 +82,42 @@ def unit_problem(problem: StaticsProblem):
         raise InputError(problem.source or "problem", "force_scale",
                          "must be a finite number > 0 (the mean normal force <Fn>)", got=s)
     return (problem if s == 1.0 else problem.scaled(1.0 / s)), s
+
+
+def solve_lp_interior(c, A_ub, b_ub, A_eq, b_eq, lo, hi, tol: float = 1e-9):
+    """min c.x s.t. A_ub x <= b_ub, A_eq x = b_eq, lo <= x <= hi by HiGHS' interior point
+    **without crossover** (highspy): the solution lies in the relative interior of the
+    optimal face (strict complementarity), not at a vertex. Feasible and optimal to
+    ``tol`` (absolute; call on a problem at <Fn> = 1). Returns (status, x): status 0
+    optimal, 2 infeasible, 3 unbounded, 1 anything else (x None)."""
+    import highspy
+
+    A = sp.vstack([sp.csr_matrix(A_ub), sp.csr_matrix(A_eq)]).tocsc()
+    inf = highspy.kHighsInf
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = A.shape[1], A.shape[0]
+    lp.col_cost_ = np.asarray(c, float)
+    lp.col_lower_ = np.where(np.isfinite(lo), lo, -inf)
+    lp.col_upper_ = np.where(np.isfinite(hi), hi, inf)
+    lp.row_lower_ = np.concatenate([np.full(A_ub.shape[0], -inf), b_eq])
+    lp.row_upper_ = np.concatenate([b_ub, b_eq])
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+    lp.a_matrix_.start_ = A.indptr
+    lp.a_matrix_.index_ = A.indices
+    lp.a_matrix_.value_ = A.data
+    h = highspy.Highs()
+    for key, value in (("output_flag", False), ("solver", "ipm"), ("run_crossover", "off"),
+                       ("threads", 1), ("primal_feasibility_tolerance", tol),
+                       ("dual_feasibility_tolerance", tol), ("ipm_optimality_tolerance", tol)):
+        h.setOptionValue(key, value)
+    h.passModel(lp)
+    h.run()
+    status = h.getModelStatus()
+    M = highspy.HighsModelStatus
+    if status == M.kOptimal:
+        return 0, np.array(h.getSolution().col_value)
+    if status == M.kInfeasible:
+        return 2, None
+    if status in (M.kUnbounded, M.kUnboundedOrInfeasible):
+        return 3, None
+    return 1, None
