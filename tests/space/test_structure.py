@@ -77,3 +77,22 @@ def test_draw_difference_and_analyze_clusters_cli(tmp_path, capsys):
     assert main(["draw", str(tmp_path / "det.h5"), "--difference", "--full",
                  "-o", str(tmp_path / "d.png")]) == 2
     assert "dimension >= 1" in capsys.readouterr().err
+
+
+def test_domains_of_dimension_one_are_elementary_clusters_on_an_ill_conditioned_slice():
+    """mu = 10 (paper scene, seed 3): three domains of dimension 1 whose null vectors
+    leak ~3e-9 of their norm outside them. The decomposition once counted 0 clusters
+    there (a null space cut at round-off), so rho was 0 where it is 3 / 105. Every
+    domain of dimension k holds k clusters; a domain of dimension 1 is one elementary
+    cluster."""
+    from paths import DATA
+    p = fs.read_packing(DATA / "paper_mu10_seed3.h5")
+    prob = fs.slice_problem(p, 28.0)
+    an = ForceSpace().compute(prob)
+    dec = decompose(prob, an, p)
+    assert [g.dim for g in dec.domains] == [1, 1, 1]
+    for gi, g in enumerate(dec.domains):
+        mine = [c for c in dec.clusters if c.domain == gi]
+        assert len(mine) == g.dim and all(c.elementary for c in mine)
+        assert set(mine[0].contacts) == set(g.contacts)       # the circuit is the domain
+    assert dec.n_elementary == 3 and dec.density == pytest.approx(3 / prob.n_interior)

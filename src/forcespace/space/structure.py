@@ -256,13 +256,24 @@ class ClusterDecomposition:
                 "percolating_domains": int(sum(self.percolates))}
 
 
+def _least_directions(M, k: int) -> np.ndarray:
+    """The k right singular vectors of M (r, d) with the smallest singular values, (d, k):
+    the directions of L that vanish outside a domain of dimension k. Taken by count, not
+    by a threshold: on ill-conditioned slices (mu = 10) a domain's vectors leak 1e-9 of
+    their norm outside it, above a null space's round-off cut-off, and the domain then
+    looked empty (0 clusters for domains of dimension 1)."""
+    _, _, vt = np.linalg.svd(M, full_matrices=True)
+    return vt[vt.shape[0] - k:].T
+
+
 def _restricted_dim(N, cols) -> int:
     """dim of {v in span(N): v = 0 outside ``cols``} = d - rank(N[rest])."""
     rest = np.setdiff1d(np.arange(N.shape[0]), cols)
     if rest.size == 0:
         return N.shape[1]
     s = sla.svdvals(N[rest])
-    return int(N.shape[1] - (s > 1e-9 * max(s.max(initial=0.0), 1.0)).sum())
+    # couplings below CIRCUIT_TOL are round-off, as in the domains (1e-9 leaks at mu = 10)
+    return int(N.shape[1] - (s > config.CIRCUIT_TOL * max(s.max(initial=0.0), 1.0)).sum())
 
 
 def _l1_circuit(B, k):
@@ -297,7 +308,7 @@ def decompose(problem, analysis, packing=None, tol: float | None = None) -> Clus
         Nv = N.reshape(-1, 2, N.shape[1]).copy()
         Nv[~vary] = 0.0
         Nv = Nv.reshape(N.shape)
-        null = sla.null_space(Nv[outside]) if outside.size else np.eye(N.shape[1])
+        null = _least_directions(Nv[outside], g.dim) if outside.size else np.eye(N.shape[1])
         B = Nv[cols] @ null                                 # (q, k) spans the domain
         B = sla.orth(B, rcond=1e-9)[:, :g.dim] if B.shape[1] > g.dim else B
         # pivot columns of a well-conditioned basis: one L1-minimal circuit through
