@@ -89,7 +89,9 @@ def verdict(relative_distance: float, soft: Packing, report: dict | None = None)
     """Is the soft network inside S at its own accuracy (module docstring)?
 
     Returns {"inside_S": bool, "relative_distance", "accuracy", "overlap_scale"
-    (max_overlap / r_min), "residual_scale" (residual / <Fn>), "factor", "text"}."""
+    (max_overlap / r_min), "residual_scale" (residual / <Fn>), "factor", "text"}. A soft
+    run that stopped at its step cap gets inside_S False and "no verdict" (its network
+    is not an equilibrium of the soft code)."""
     meta = soft.meta or {}
     overlap = soft.max_overlap() / float(soft.r.min())
     scale = meta.get("force_scale") or soft.mean_normal_force() or 1.0
@@ -100,6 +102,13 @@ def verdict(relative_distance: float, soft: Packing, report: dict | None = None)
     else:
         residual = soft.equilibrium_residual()
     acc = max(overlap, residual)
+    converged, reason = run_status(meta)
+    if converged is False:      # a run stopped at its cap is no soft equilibrium at all
+        return {"inside_S": False, "relative_distance": relative_distance, "accuracy": acc,
+                "overlap_scale": overlap, "residual_scale": residual,
+                "factor": INSIDE_FACTOR,
+                "text": f"no verdict: the soft run {reason} (relative distance "
+                        f"{relative_distance:.2e}, residual {residual:.2e} <Fn>)"}
     inside = bool(relative_distance <= INSIDE_FACTOR * acc)
     why = (f"relative distance {relative_distance:.2e} {'<=' if inside else '>'} "
            f"{INSIDE_FACTOR:g} x accuracy {acc:.2e} (max overlap / r_min {overlap:.2e}, "
