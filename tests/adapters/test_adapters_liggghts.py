@@ -53,12 +53,17 @@ def test_readback_in_equilibrium_to_tolerance(runs):
     prob, out = runs
     for K, (st, soft, info) in out.items():
         assert st["converged"]
-        # per-disk residual (LIGGGHTS' own force and torque, damping off) within 3x the
-        # run's stopping tolerance; the convergence check saw it with damping terms on
-        assert info["max_residual_force"] <= 3 * info["tolerance_abs"]
+        # the convergence test reads the static residual (velocities zeroed), so the
+        # read-back network (LIGGGHTS' own forces, no damping) meets the tolerance itself;
+        # the old live-velocity test let it be up to 17x off
+        assert info["max_residual_force"] <= info["tolerance_abs"]
+        assert L.precision_floor(K, 30.0) < 1e-8                 # far below: not raised
+        assert info["tolerance_abs"] == pytest.approx(1e-6 * prob.force_scale, rel=1e-12)
         force, torque, plate = soft.net_forces()
-        assert np.abs(force).max() <= 3 * info["tolerance_abs"]
-        assert abs(plate) <= 3 * info["tolerance_abs"]          # plate carries top_force
+        assert np.abs(force).max() <= 3 * info["tolerance_abs"]   # soft geometry: r - delta/2
+        # plate carries top_force: the deck tested LIGGGHTS' own plate force; the read-back
+        # sum of fn over the TOP contacts (soft geometry) agrees to well within 1.5x
+        assert abs(plate) <= 1.5 * info["plate_tolerance_abs"]
         assert (soft.b == -2).sum() > 0
 
 
