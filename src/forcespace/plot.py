@@ -78,7 +78,9 @@ def new_axes(p: Packing):
     from matplotlib.figure import Figure
 
     height = (p.y_top - p.y_bottom) if np.isfinite(p.y_top) else (p.y + p.r).max()
-    fig = Figure(figsize=(6.4, 6.0 * max(height, 1) / p.width + 1.2), layout="constrained")
+    # no layout engine: draw_packing (or the caller) calls tight_layout, which keeps the
+    # legend above the Axes inside the figure
+    fig = Figure(figsize=(6.4, 6.0 * max(height, 1) / p.width + 1.2))
     return fig.add_subplot()
 
 
@@ -227,6 +229,7 @@ def draw_packing(p: Packing, path, title: str | None = None, values=None,
     """:func:`plot_packing` written to ``path`` (its suffix picks the format; a
     ``.png`` also gets a ``.pdf`` twin)."""
     ax = plot_packing(p, None, values=values, signed=signed, title=title)
+    ax.figure.tight_layout()
     save_figure(ax.figure, path, dpi)
 
 
