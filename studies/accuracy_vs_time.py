@@ -130,7 +130,7 @@ def liggghts_curve(p, S, K, work, max_steps, points, reuse=False) -> dict:
     prob = soft_problem(p, top="plate")
     every = max(1000, int(round(max_steps / 150, -3)))
     d = Path(work) / f"lig_K{K:g}"
-    opt = L.LiggghtsOptions(kn=K * prob.force_scale, tolerance=1e-6, max_steps=max_steps,
+    opt = L.LiggghtsOptions(kn=K, tolerance=1e-6, max_steps=max_steps,
                             snapshot_every=every)
     if reuse:
         if json.loads((d / "deck.json").read_text())["options"] != asdict(opt):

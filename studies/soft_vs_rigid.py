@@ -36,7 +36,7 @@ def _run_liggghts(p, K, kt_ratio, work):
     # tolerance 1e-6 <Fn>: at K = 1e7 the per-disk residual does not get below ~3e-7 <Fn>
     # (double-precision positions ~40 R, kn*ulp ~ 5e-9 F0 per contact); runs to 1e-7 at
     # K = 1e7 stall, with 1e-6 they converge in ~0.8M steps
-    L.write_deck(prob, d, L.LiggghtsOptions(kn=K * prob.force_scale, kt_ratio=kt_ratio,
+    L.write_deck(prob, d, L.LiggghtsOptions(kn=K, kt_ratio=kt_ratio,
                                             tolerance=1e-6, max_steps=1_500_000))
     L.run_deck(d)
     soft, info = L.read_result(d, p)

@@ -4,12 +4,21 @@
     forcespace run liggghts|pymunk DIR
     forcespace import liggghts|pymunk DIR -o SOFT.h5
     forcespace distance SOFT.h5 PACK.h5 [--json]
+
+Units: --kn in <Fn>/R, --tolerance in <Fn>, pymunk --dt in sqrt(m_min R/<Fn>), <Fn> the
+rigid packing's mean normal force. Uses only forcespace's public API: errors are raised
+(InputError: exit 2, NumericalError: exit 3) and forcespace's CLI maps them.
 """
 from __future__ import annotations
 
 import sys
 
-from forcespace.cli import EXIT_NOT_CONVERGED, print_json
+from forcespace.errors import NumericalError
+from forcespace.io.jsonfile import dumps
+
+
+def print_json(obj) -> None:
+    print(dumps(obj, indent=2))
 
 
 def _liggghts_opts(args):
@@ -53,9 +62,8 @@ def _cmd_run(args):
     print_json(st)
     if st.get("converged"):
         return 0
-    print(f"forcespace run: not converged: {args.code} stopped before its tolerance "
-          f"(steps {st.get('steps')}); the result is importable but flagged", file=sys.stderr)
-    return EXIT_NOT_CONVERGED
+    raise NumericalError(f"{args.code} stopped before its tolerance (steps {st.get('steps')}); "
+                         "the result is importable but flagged")
 
 
 def _cmd_import(args):
@@ -69,10 +77,9 @@ def _cmd_import(args):
 def _cmd_distance(args):
     from forcespace.io.packing_file import read_packing
 
-    from .distance import compare
+    from .distance import compare, make_problem
     soft = read_packing(args.soft, kind="soft_network")
     rigid = read_packing(args.packing)
-    from .distance import make_problem
     out = compare(rigid, soft, make_problem(rigid, args.top))
     if not args.list:
         out.pop("unmatched")
@@ -86,17 +93,18 @@ def _cmd_distance(args):
               f"{out['max_unmatched_force_rel']:.2e} <Fn>); lost rigid contacts: "
               f"{out['lost_contacts']} (max rigid force {out['max_lost_rigid_force_rel']:.2e} <Fn>)")
         print(f"max overlap: {out['max_overlap']:.3e} R")
+        print(f"verdict: {out['verdict']['text']}")
     if out["soft_run_converged"] is False:
-        print(f"forcespace distance: not converged: the soft run {out['soft_run_reason']}; "
-              "its distance to S is not a converged result", file=sys.stderr)
-        return EXIT_NOT_CONVERGED
+        raise NumericalError(f"the soft run {out['soft_run_reason']}; its distance to S is "
+                             "not a converged result")
     return 0
 
 
 def _common_run_opts(p, tol_default, ramp_default, check_default, max_default):
     p.add_argument("--tolerance", type=float, default=tol_default,
-                   help="stop when the largest per-disk residual < TOL * <Fn> "
-                        f"(default {tol_default:g})")
+                   help="stop when the largest per-disk residual < TOL <Fn> (LIGGGHTS: the "
+                        "static residual, raised to the run's precision floor; default "
+                        f"{tol_default:g})")
     p.add_argument("--ramp-steps", type=int, default=ramp_default,
                    help=f"load ramp length in steps (default {ramp_default})")
     p.add_argument("--check-every", type=int, default=check_default,
@@ -123,7 +131,9 @@ def register(subparsers):
                             "rigid forces as dead loads (loads; unstable for real packings)")
         p.add_argument("-o", "--output", required=True, help="run directory to write")
         p.set_defaults(func=_cmd_export)
-    el.add_argument("--kn", type=float, default=lo.kn, help=f"normal stiffness [F0/R] (default {lo.kn:g})")
+    el.add_argument("--kn", type=float, default=lo.kn,
+                    help="normal stiffness K in <Fn>/R, <Fn> the packing's mean normal force "
+                         f"(a mean contact overlaps by R/K; default {lo.kn:g})")
     el.add_argument("--kt-ratio", type=float, default=lo.kt_ratio, help="kt/kn (default 2/7)")
     el.add_argument("--damping-ratio", type=float, default=lo.damping_ratio,
                     help=f"damping ratio (default {lo.damping_ratio:g})")

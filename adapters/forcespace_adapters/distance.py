@@ -12,20 +12,40 @@ Uses only forcespace's public statics API and ``forcespace.polytope.distance_to_
 
 relative_distance = ||x - P_S(x)|| / (<Fn> sqrt(m)): the rms per-contact
 distance in units of the rigid mean normal force.
+
+Verdict (:func:`verdict`): a soft network cannot be closer to S than its own accuracy.
+Its geometry differs from the rigid one by its overlaps (contact normals turn by up to
+max_overlap / r_min, moving forces between the normal and tangential parts by that
+fraction of <Fn>), and its equilibrium holds to its residual. So the accuracy of a soft
+network, in the units of the relative distance, is
+``accuracy = max(max_overlap / r_min, residual / <Fn>)`` (residual: the soft run's own
+largest per-disk force residual when it records one, else the network's equilibrium
+residual), and the network counts as **inside S at the soft code's accuracy** when
+``relative_distance <= INSIDE_FACTOR * accuracy`` (INSIDE_FACTOR = 10: converged LIGGGHTS
+and pymunk networks that keep the rigid contact network sit at 1-4x their accuracy on the
+paper packings, while one extra soft contact -- a rigid gap closed by the soft overlaps --
+puts the network 1e3-1e4x its accuracy away).
 """
 from __future__ import annotations
 
 import numpy as np
 
+import forcespace as fs
+from forcespace.errors import InputError
 from forcespace.model.packing import Packing
 
 from .matching import MatchResult, match_contacts
 
+INSIDE_FACTOR = 10.0
+
 
 def make_problem(rigid: Packing, top: str = "plate"):
-    """The statics problem (S) to measure distances in; see the module docstring."""
-    from forcespace.model.problem import full_problem, plate_problem
-    return plate_problem(rigid) if top == "plate" else full_problem(rigid)
+    """The statics problem (S) to measure distances in: ``top="plate"`` (default) the
+    plate problem (TOP contacts unknown, plate balance a row), ``"loads"`` the full
+    problem (TOP forces fixed); see the module docstring."""
+    if top not in ("plate", "loads"):
+        raise InputError("distance", "top", "must be 'plate' or 'loads'", got=top)
+    return fs.plate_problem(rigid) if top == "plate" else fs.full_problem(rigid)
 
 
 def soft_vector(rigid: Packing, soft: Packing, problem=None):
@@ -43,7 +63,8 @@ def compare(rigid: Packing, soft: Packing, problem=None,
     lost_contacts, max_unmatched_force(_rel), max_lost_rigid_force(_rel),
     max_overlap [R], soft_equilibrium_residual (soft geometry), n_unknown_contacts,
     force_scale [F0], plus the soft run's parameters. The projection is
-    ``forcespace.polytope.distance_to_S`` (exact, KKT-verified).
+    ``forcespace.space.projection.distance_to_S`` (exact, KKT-verified). ``verdict``:
+    whether the network is inside S at the soft code's own accuracy (:func:`verdict`).
     """
     from forcespace.space.projection import distance_to_S
     prob, x, m = soft_vector(rigid, soft, problem)
@@ -60,7 +81,48 @@ def compare(rigid: Packing, soft: Packing, problem=None,
     out["lost"] = m.lost
     out["run"] = {k: v for k, v in soft.meta.items() if isinstance(v, (int, float, str, bool))}
     out["soft_run_converged"], out["soft_run_reason"] = run_status(soft.meta)
+    out["verdict"] = verdict(rel, soft, out)
     return out
+
+
+def verdict(relative_distance: float, soft: Packing, report: dict | None = None) -> dict:
+    """Is the soft network inside S at its own accuracy (module docstring)?
+
+    Returns {"inside_S": bool, "relative_distance", "accuracy", "overlap_scale"
+    (max_overlap / r_min), "residual_scale" (residual / <Fn>), "factor", "text"}. A soft
+    run that stopped at its step cap gets inside_S False and "no verdict" (its network
+    is not an equilibrium of the soft code)."""
+    meta = soft.meta or {}
+    overlap = soft.max_overlap() / float(soft.r.min())
+    scale = meta.get("force_scale") or soft.mean_normal_force() or 1.0
+    if meta.get("max_residual_force") is not None:
+        residual = float(meta["max_residual_force"]) / scale
+    elif meta.get("max_residual_rel") is not None:
+        residual = float(meta["max_residual_rel"])
+    else:
+        residual = soft.equilibrium_residual()
+    acc = max(overlap, residual)
+    converged, reason = run_status(meta)
+    if converged is False:      # a run stopped at its cap is no soft equilibrium at all
+        return {"inside_S": False, "relative_distance": relative_distance, "accuracy": acc,
+                "overlap_scale": overlap, "residual_scale": residual,
+                "factor": INSIDE_FACTOR,
+                "text": f"no verdict: the soft run {reason} (relative distance "
+                        f"{relative_distance:.2e}, residual {residual:.2e} <Fn>)"}
+    inside = bool(relative_distance <= INSIDE_FACTOR * acc)
+    why = (f"relative distance {relative_distance:.2e} {'<=' if inside else '>'} "
+           f"{INSIDE_FACTOR:g} x accuracy {acc:.2e} (max overlap / r_min {overlap:.2e}, "
+           f"residual {residual:.2e} <Fn>)")
+    extra = ""
+    if not inside and report and report.get("unmatched_contacts"):
+        extra = (f"; {report['unmatched_contacts']} soft contact(s) absent from the rigid "
+                 f"packing carry up to {report['max_unmatched_force_rel']:.2g} <Fn> (rigid gaps "
+                 "closed by the soft overlaps)")
+    text = ("inside S at the soft code's accuracy: " if inside else
+            "outside S beyond the soft code's accuracy: ") + why + extra
+    return {"inside_S": inside, "relative_distance": relative_distance, "accuracy": acc,
+            "overlap_scale": overlap, "residual_scale": residual,
+            "factor": INSIDE_FACTOR, "text": text}
 
 
 def run_status(meta: dict):

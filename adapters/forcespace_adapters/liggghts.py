@@ -29,11 +29,26 @@ raised in 20 steps; frictionless when plate_mu = 0). With a 1 R thick slab
 any mesh wall aborts in region_neighbor_list_I.h:165; 10 R works. The plate's
 final y is printed as ``FORCESPACE_PLATE_Y`` and gives the top overlaps.
 Dead-load mode (``top="loads"``): the top plate's rigid contact forces become
-fixed loads through the centres (unstable for real packings: columns buckle). Hookean contacts ``hooke/stiffness`` with kn,
-kt = kt_ratio*kn, gamma_n = gamma_t = 2*zeta*sqrt(kn/m_ref) (LIGGGHTS
+fixed loads through the centres (unstable for real packings: columns buckle). Hookean contacts ``hooke/stiffness`` with kn = K <Fn>/R
+(``LiggghtsOptions.kn`` is K, the stiffness in units of the rigid packing's mean normal
+force per R, so that a mean contact overlaps by R/K whatever the load; the deck gets
+kn_abs = K <Fn> in F0/R), kt = kt_ratio*kn, gamma_n = gamma_t = 2*zeta*sqrt(kn/m_ref) (LIGGGHTS
 multiplies by the pair's effective mass, so the damping ratio is zeta for
 pairs of effective mass m_ref = m_min/2 and larger for heavier pairs).
 dt = t_c * dt_fraction with t_c = pi*sqrt(m_ref/kn).
+
+Convergence test (every ``check_every`` steps): the velocities and spins are zeroed and
+one step is run, so the residual sqrt(F^2 + (T/r)^2) of every disk is the *static*
+imbalance (contact springs and loads only). Measured with live velocities it would
+include the damping forces, which at soft stiffness balance the springs of a slowly
+creeping packing: such a run passed a live test with a static residual 17x its
+tolerance, or (the plate) never passed. The plate passes when its force is within
+tolerance * sqrt(N_top) of its target (N_top rigid plate contacts: the error of a sum of
+N_top contact forces each known to the tolerance). Once the plate force is within 100x
+that, the servo gains an integral term (time constant ``plate_integral_time`` t_c): a
+proportional servo lags a creeping packing by (creep speed)/(mobility), which left the
+plate force 1.2e-7 F0 short of its target for 2e6 steps on the mu = 0.1, seed-2 paper
+packing (LIGGGHTS 3.8 resets the integral when the gains are set).
 LIGGGHTS has no per-atom torque in this build, so boundary loads with a torque
 (frictional slice loads, frictional top plate) are refused.
 """
@@ -45,7 +60,7 @@ import shutil
 import subprocess
 import tempfile
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -58,7 +73,28 @@ from forcespace.model.packing import Packing
 
 from .problem import SoftProblem, check_options
 
-DECK_VERSION = 1
+DECK_VERSION = 2      # 2: kn in <Fn>/R (was F0/R), static convergence test, PI plate
+UNITS = ("lengths R, forces F0 in the deck; options: stiffness kn in <Fn>/R, tolerance in "
+         "<Fn>, <Fn> = mean normal force of the rigid packing (force-bearing contacts)")
+PRECISION_FACTOR = 200.0
+
+
+def precision_floor(K: float, extent: float) -> float:
+    """The smallest static residual per disk [<Fn>] a LIGGGHTS run at stiffness K
+    [<Fn>/R] reaches in a box whose coordinates reach ``extent`` [R]:
+    ``PRECISION_FACTOR * K * ulp(extent)``.
+
+    Why: positions are doubles, so a disk moves only if v*dt exceeds half an ulp of its
+    coordinate; a damped disk whose remaining force imbalance F drives it slower than
+    that stays where it is. With gamma = 2 zeta sqrt(kn/m) and dt = t_c/50 this happens
+    below F ~ 11 kn ulp(x) per disk, i.e. ~11 K ulp(x) <Fn>; a few contacts per disk and
+    the plate add to it. Measured here with the static test (velocities zeroed) on the
+    mu = 0.1 seed-2 paper packing: the static residual stalls at 8.2e-7 <Fn> at
+    K = 1.27e6 and 7.4e-6 <Fn> at K = 1e7, i.e. 91 and 104 K ulp(44 R) -- while the
+    residual with live velocities reads 1e-8..1e-7 <Fn>, because the damping forces of
+    the disks' sub-ulp jitter balance the springs. PRECISION_FACTOR = 200 leaves a factor
+    of 2 over that."""
+    return PRECISION_FACTOR * float(K) * float(np.spacing(float(extent)))
 
 
 class LiggghtsError(ForcespaceError):
@@ -69,24 +105,34 @@ class LiggghtsError(ForcespaceError):
 class LiggghtsOptions:
     """Parameters of a LIGGGHTS run.
 
-    kn [F0/R] normal stiffness; kt_ratio = kt/kn; damping_ratio zeta (0.5-1
-    settles fastest); dt_fraction: dt = t_c*dt_fraction (t_c/50 is safe);
-    tolerance: stop when the largest per-disk residual sqrt(F^2 + (T/r)^2) is
-    below tolerance * mean rigid normal force; ramp_steps: steps over which the
+    Units (one convention for every adapter): stiffness in <Fn>/R and forces in
+    <Fn>, <Fn> the mean normal force of the rigid packing (force-bearing contacts).
+
+    kn [<Fn>/R] normal stiffness K (a mean contact overlaps by R/K); kt_ratio = kt/kn;
+    damping_ratio zeta (0.5-1 settles fastest); dt_fraction: dt = t_c*dt_fraction (t_c/50
+    is safe); tolerance [<Fn>]: stop when the largest per-disk static residual
+    sqrt(F^2 + (T/r)^2) is below tolerance (the plate: tolerance*sqrt(N_top)); the
+    tolerance actually used is raised to the run's own accuracy floor,
+    :func:`precision_floor` (K, L) = 200 K ulp(L) (L the largest deck coordinate; 2e-5
+    <Fn> at K = 1e7 in the 42 R paper box), below which a double-precision LIGGGHTS run
+    cannot settle (recorded in deck.json and the soft network's meta); ramp_steps: steps over which the
     loads rise linearly from 0; check_every: steps between convergence checks;
     max_steps: give up after this many steps (status converged = False);
     plate_time: relaxation time of the load-controlled top plate in t_c (the
     plate is overdamped: velocity = (force on it - target) / (N_top kn plate_time t_c));
+    plate_integral_time: time constant of the servo's integral term in t_c (switched on
+    near convergence; see the module docstring);
     snapshot_every: if > 0, after the ramp dump atoms and contacts every this many
     steps (snap_*.dump, see :func:`read_snapshots`); 0 = final state only.
     """
 
-    kn: float = 1e4
+    kn: float = 1e5
     kt_ratio: float = 2.0 / 7.0
     damping_ratio: float = 0.7
     dt_fraction: float = 1.0 / 50.0
-    tolerance: float = 1e-7
+    tolerance: float = 1e-6
     plate_time: float = 5.0
+    plate_integral_time: float = 1000.0
     ramp_steps: int = 5000
     check_every: int = 1000
     max_steps: int = 2_000_000
@@ -98,6 +144,7 @@ class LiggghtsOptions:
                   ("dt_fraction", 0 < self.dt_fraction <= 0.1, "in (0, 0.1] (t_c/10 fails)"),
                   ("tolerance", self.tolerance > 0, "> 0"),
                   ("plate_time", self.plate_time > 0, "> 0"),
+                  ("plate_integral_time", self.plate_integral_time > 0, "> 0"),
                   ("ramp_steps", self.ramp_steps >= 1, ">= 1"),
                   ("check_every", self.check_every >= 1, ">= 1"),
                   ("max_steps", self.max_steps >= self.ramp_steps, ">= ramp_steps"),
@@ -134,13 +181,17 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
     ids = np.flatnonzero(problem.active)       # rattlers are not exported
     m = p.mass[ids]
     m_ref = 0.5 * float(m.min())
-    t_c = np.pi * np.sqrt(m_ref / opt.kn)
-    dt = t_c * opt.dt_fraction
-    gamma = 2.0 * opt.damping_ratio * np.sqrt(opt.kn / m_ref)
-    kt = opt.kt_ratio * opt.kn
     scale = problem.force_scale
-    tol_abs = opt.tolerance * scale
+    kn = opt.kn * scale                       # [F0/R]
+    t_c = np.pi * np.sqrt(m_ref / kn)
+    dt = t_c * opt.dt_fraction
+    gamma = 2.0 * opt.damping_ratio * np.sqrt(kn / m_ref)
+    kt = opt.kt_ratio * kn
     W = float(p.width)
+    extent = max(W, float(np.abs(p.y - p.y.max()).max() + 2 * p.r.max()))
+    floor = precision_floor(opt.kn, extent)
+    tol_used = max(opt.tolerance, floor)
+    tol_abs = tol_used * scale
     x = np.mod(p.x, W)
     ybot = float(problem.bottom_wall)
     # deck y = packing y - ys: with a plate, ys = y_top puts the plate near y = 0 so its
@@ -155,7 +206,9 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
     # list ("assertion failed (./src/region_neighbor_list_I.h:165)"); 10 R is fine
     zhalf = max(5.0, 4.0 * rmax)
     mu, wmu = float(problem.mu), float(problem.wall_mu)
-    n_chunks = max(1, (opt.max_steps - opt.ramp_steps) // opt.check_every)
+    # after the ramp: one chunk of check_every steps, then chunks of check_every + 1
+    n_chunks = max(1, (opt.max_steps - opt.ramp_steps - opt.check_every)
+                   // (opt.check_every + 1))
     n_ramp = 20 if problem.top_plate is not None else 1
     ramp_len = max(1, opt.ramp_steps // n_ramp)
     if n_ramp == 1:
@@ -171,11 +224,13 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
         if pmu != wmu:
             raise InputError(source, "plate_mu", "bottom and top plate friction must agree")
         n_top = max(1, int(((p.b == TOP) & problem.internal).sum()))
-        mobility = 1.0 / (n_top * opt.kn * opt.plate_time * t_c)
+        mobility = 1.0 / (n_top * kn * opt.plate_time * t_c)
+        tol_plate = tol_abs * np.sqrt(n_top)
         vmax = 0.2 * skin / dt
         # the servo sets v = vel_max*kp*(target - F)/target along its axis (P control,
         # LIGGGHTS 3.8 fix_mesh_surface_stress_servo.cpp): kp so that v = mobility*(target - F)
         kp = mobility * T / vmax
+        ki = kp / (opt.plate_integral_time * t_c)
         yhi = max(yhi, y_top + 4.0 * rmax)
         nstrip = int(np.ceil(W / float(p.r.min())))
         xs = np.linspace(0.0, W, nstrip + 1)
@@ -198,13 +253,18 @@ compute ftop all reduce sum f_force_wallt[2]
 variable ptop equal -c_ftop
 variable perr equal abs(c_ftop+{_fmt(T)})
 """
-        cond = f'"${{rmax}} < {_fmt(tol_abs)} && ${{perr}} < {_fmt(tol_abs)}"'
+        cond = f'"${{rmax}} < {_fmt(tol_abs)} && ${{perr}} < {_fmt(tol_plate)}"'
+        integral_on = (f'if "${{pion}} == 0 && ${{perr}} < {_fmt(100 * tol_plate)}" then '
+                       f'"fix_modify top ctrlParam {_fmt(kp)} {_fmt(ki)} 0.0" '
+                       '"variable pion delete" "variable pion equal 1" '
+                       '"print \'FORCESPACE_PLATE_INTEGRAL on\'"\n')
         thermo_extra = " v_ptop"
         wall_cols = " f_force_wallt[1] f_force_wallt[2]"
         stop_plate = "fix_modify top servo/integrate stop\n"
         plate_print = 'variable yplate equal f_top[8]\nprint "FORCESPACE_PLATE_Y ${yplate}"\n'
     else:
         plate_cmds, thermo_extra, wall_cols, stop_plate, plate_print = "", "", "", "", ""
+        integral_on, tol_plate, n_top, ki = "", None, 0, None
         cond = f'"${{rmax}} < {_fmt(tol_abs)}"'
 
     def dumps(tag, every, prefix):
@@ -254,13 +314,17 @@ variable perr equal abs(c_ftop+{_fmt(T)})
 # box: x periodic [0, {W:g}) (= packing width), y fixed [{ylo - ys:g}, {yhi - ys:g}], z slab +-{zhalf:g}
 # y shift: deck y = packing y - {ys!r} (plate near y = 0, see liggghts.py)
 # bottom plate: fix wall/gran primitive yplane {ybot:g} (packing y_bottom), friction {wmu:g} (plate_mu)
-{top_doc}# contacts: hooke/stiffness, kn = {opt.kn:g} F0/R, kt = {opt.kt_ratio:g}*kn = {kt:g},
+{top_doc}# contacts: hooke/stiffness, kn = K <Fn>/R = {opt.kn:g} x {scale:g} = {kn:g} F0/R,
+#   kt = {opt.kt_ratio:g}*kn = {kt:g},
 #   friction mu = {mu:g} (disk-disk), tangential history (Coulomb-capped spring)
 # damping: gamma_n = gamma_t = {gamma:g} (times the pair's effective mass, damping ratio
 #   {opt.damping_ratio:g} for effective mass m_ref = m_min/2 = {m_ref:g})
 # time step: dt = t_c*{opt.dt_fraction:g} = {dt:g}, t_c = pi*sqrt(m_ref/kn) = {t_c:g}
-# stop: every {opt.check_every} steps, when max over disks of sqrt(fx^2+fy^2+(tqz/r)^2)
-#   < {tol_abs:g} F0 (= {opt.tolerance:g} x mean rigid normal force {scale:g}), at most {opt.max_steps} steps
+# stop: every {opt.check_every} steps the velocities and spins are zeroed and one step is run;
+#   converged when max over disks of that static sqrt(fx^2+fy^2+(tqz/r)^2)
+#   < {tol_abs:g} F0 (= {tol_used:g} <Fn>, <Fn> = {scale:g} F0: the tolerance {opt.tolerance:g},
+#   raised to the precision floor {floor:.2g} of K = {opt.kn:g} if larger) and the plate force is
+#   within {tol_plate if tol_plate is not None else 0:g} F0 of its target; at most {opt.max_steps} steps
 # output: velocities and spins zeroed, run 0, then atoms.dump (id x y radius fx fy tqz wall fx fy)
 #   and contacts.dump (compute pair/gran/local: id1 id2 periodic-flag, force on atom id1 (3),
 #   normal part (3), tangential part (3), overlap delta)
@@ -277,7 +341,7 @@ read_data data.lmp
 neighbor {_fmt(skin)} bin
 neigh_modify delay 0
 
-fix m1 all property/global kn peratomtypepair 2 {_fmt(opt.kn)} {_fmt(opt.kn)} {_fmt(opt.kn)} {_fmt(opt.kn)}
+fix m1 all property/global kn peratomtypepair 2 {_fmt(kn)} {_fmt(kn)} {_fmt(kn)} {_fmt(kn)}
 fix m2 all property/global kt peratomtypepair 2 {_fmt(kt)} {_fmt(kt)} {_fmt(kt)} {_fmt(kt)}
 fix m3 all property/global gamman peratomtypepair 2 {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)}
 fix m4 all property/global gammat peratomtypepair 2 {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)}
@@ -312,14 +376,20 @@ thermo {opt.check_every}
 variable s delete
 variable s equal 1.0
 {snap_on}run {opt.check_every}
-# later chunks without re-setup ("pre no"): a full setup every chunk kicked the state;
-# the free drift along x (frictionless plates, periodic x) is removed before each chunk
+# later chunks without re-setup ("pre no"): a full setup resets the servo's reference
+# position; the free drift along x (frictionless plates, periodic x) is removed before each
+# chunk. The check: velocities and spins zeroed, one step, so the residual is static (no
+# damping force in it); near convergence the servo gets its integral term (once).
+variable pion equal 0
 variable it loop {n_chunks}
 label loop
 velocity all zero linear
 run {opt.check_every} pre no post no
+velocity all set 0.0 0.0 0.0
+set group all omegaz 0.0
+run 1 pre no post no
 if {cond} then "jump SELF converged"
-next it
+{integral_on}next it
 jump SELF loop
 print "FORCESPACE_STATUS not_converged"
 jump SELF final
@@ -340,7 +410,10 @@ run 0
                 "n_disks": n, "exported": ids.tolist(), "width": W,
                 "rigid_xyr": np.column_stack([p.x, p.y, p.r]).tolist(), "y_bottom": ybot, "y_shift": ys, "m_ref": m_ref, "t_c": t_c,
                 "dt": dt, "gamma": gamma, "kt": kt, "force_scale": scale,
-                "tolerance_abs": tol_abs, "mu": mu, "wall_mu": wmu,
+                "units": UNITS, "kn": opt.kn, "kn_abs": kn,
+                "tolerance_used": tol_used, "precision_floor": floor, "extent": extent,
+                "tolerance_abs": tol_abs, "plate_tolerance_abs": tol_plate, "n_top": n_top,
+                "servo_ki": ki, "mu": mu, "wall_mu": wmu,
                 "load": problem.load.tolist(),
                 "top_load": None if problem.top_load is None else problem.top_load.tolist(),
                 "top_plate": plate,
@@ -524,7 +597,7 @@ def _soft_network(d: Path, meta, status, atoms, cont, y_plate, rigid):
     if meta.get("top_plate") is not None:
         walltop[k] = atoms[:, 9:11]
     W = float(meta["width"])
-    A, B, IMG, NRM, PT, GAP, FN, FT = [], [], [], [], [], [], [], []
+    A, B, IMG, FN, FT = [], [], [], [], []
     mu_pair = float(meta["mu"]) > 0.0
     for row in cont.reshape(-1, 13) if cont.size else []:
         i, j = int(round(row[0])) - 1, int(round(row[1])) - 1
@@ -532,53 +605,54 @@ def _soft_network(d: Path, meta, status, atoms, cont, y_plate, rigid):
         dx = x[j] - x[i]
         image = -int(np.round(dx / W))
         dvec = np.array([dx + image * W, y[j] - y[i]])
-        dist = np.linalg.norm(dvec)
-        nv = dvec / dist
+        nv = dvec / np.linalg.norm(dvec)
         F = -f_on_i                      # force on b = j
-        A.append(i); B.append(j); IMG.append(image); NRM.append(nv)
-        GAP.append(dist - r[i] - r[j]); PT.append(np.array([x[i], y[i]]) + (r[i] + 0.5 * GAP[-1]) * nv)
+        A.append(i); B.append(j); IMG.append(image)
         # mu = 0: the dynamics caps the tangential force at 0 (atoms' tqz stays exactly 0),
         # but compute pair/gran/local re-evaluates it with the free spins of the disks and
         # reports their tangential damping (~1e-2 <Fn> in snapshots of a 200-disk run)
         FN.append(F @ nv); FT.append(F @ np.array([-nv[1], nv[0]]) if mu_pair else 0.0)
     ybot = float(meta["y_bottom"])
     for i in np.flatnonzero(wall[:, 1] != 0.0):
-        A.append(BOTTOM); B.append(int(i)); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
-        GAP.append(y[i] - r[i] - ybot); PT.append(np.array([x[i], ybot]))
+        A.append(BOTTOM); B.append(int(i)); IMG.append(0)
         FN.append(wall[i, 1]); FT.append(-wall[i, 0])   # t = (-1, 0) for n = (0, 1)
     top_force = 0.0
     for i in np.flatnonzero(walltop[:, 1] != 0.0):        # plate pushes disk i down
-        A.append(int(i)); B.append(TOP); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
-        yp = y_plate if np.isfinite(y_plate) else y[i] + r[i]
-        PT.append(np.array([x[i], yp])); GAP.append(yp - y[i] - r[i])
+        A.append(int(i)); B.append(TOP); IMG.append(0)
         FN.append(-walltop[i, 1]); FT.append(walltop[i, 0])   # force on TOP = -wall force
         top_force += -walltop[i, 1]
     top_load = np.asarray(meta["top_load"] or np.zeros(n))
     for i in np.flatnonzero(top_load != 0.0):
-        A.append(int(i)); B.append(TOP); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
-        GAP.append(0.0); PT.append(np.array([x[i], y[i] + r[i]]))
+        A.append(int(i)); B.append(TOP); IMG.append(0)
         FN.append(top_load[i]); FT.append(0.0)
         top_force += top_load[i]
     opt = meta["options"]
-    info = {"code": "liggghts", "kn": opt["kn"], "kt_ratio": opt["kt_ratio"],
+    v1 = meta.get("deck_version", 1) < 2          # version 1 decks: kn in F0/R
+    K = opt["kn"] / meta["force_scale"] if v1 else opt["kn"]
+    info = {"code": "liggghts", "kn": K, "kn_unit": "<Fn>/R",
+            "kn_abs": opt["kn"] if v1 else meta["kn_abs"], "kt_ratio": opt["kt_ratio"],
             "damping_ratio": opt["damping_ratio"], "dt": meta["dt"], "t_c": meta["t_c"],
-            "tolerance": opt["tolerance"], "tolerance_abs": meta["tolerance_abs"],
+            "force_scale": meta["force_scale"], "tolerance": opt["tolerance"],
+            "tolerance_used": meta.get("tolerance_used", opt["tolerance"]),
+            "precision_floor": meta.get("precision_floor", 0.0),
+            "tolerance_abs": meta["tolerance_abs"],
+            "plate_tolerance_abs": meta.get("plate_tolerance_abs") or meta["tolerance_abs"],
             "steps": status["steps"], "converged": bool(status["converged"]),
             "wall_time_s": status["wall_time_s"],
             "max_residual_force": float(np.linalg.norm(resid, axis=1).max(initial=0.0)),
             "deck": d.name}
     kw = dict(width=W, periodic_x=True, y_bottom=ybot, y_top=float("nan"),
               top_force=top_force, gravity=0.0, density=1.0, mu=meta["mu"],
-              plate_mu=meta["wall_mu"], seed=meta["packing"]["seed"],
-              scene_name=meta["packing"]["scene_name"], scene_text="")
+              plate_mu=meta["wall_mu"], scene_name=meta["packing"]["scene_name"])
+    scene_text = ""
     if rigid is not None:
         kw.update(gravity=rigid.gravity, density=rigid.density,
                   y_top=y_plate if np.isfinite(y_plate) else rigid.y_top,
-                  scene_text=rigid.scene_text, top_force=rigid.top_force)
-    soft = Packing(x=x.copy(), y=y.copy(), r=r.copy(),
-                   a=np.array(A, dtype=np.int64), b=np.array(B, dtype=np.int64),
-                   normal=np.array(NRM).reshape(-1, 2), point=np.array(PT).reshape(-1, 2),
-                   image=np.array(IMG, dtype=np.int64), gap=np.array(GAP, dtype=float),
-                   fn=np.array(FN, dtype=float), ft=np.array(FT, dtype=float),
-                   meta=dict(info), **kw)
+                  top_force=rigid.top_force)
+        scene_text = rigid.scene_text
+    # geometry (normals, contact points, gaps) from the soft centres and plate positions
+    soft = Packing.from_arrays(x, y, r, np.array(A, np.int64), np.array(B, np.int64),
+                               np.array(FN, float), np.array(FT, float),
+                               image=np.array(IMG, np.int64), **kw)
+    soft = replace(soft, seed=meta["packing"]["seed"], scene_text=scene_text, meta=dict(info))
     return soft, info

@@ -25,7 +25,7 @@ contact forces on a disk and its twin) is below ``tolerance * <Fn>`` or
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 import pymunk
@@ -313,46 +313,36 @@ class PymunkScene:
         x, y = p.x.copy(), p.y.copy()
         for i in self.disks:
             x[i], y[i] = self.body[i].position
-        A, B, IMG, NRM, PT, GAP, FN, FT = [], [], [], [], [], [], [], []
+        A, B, IMG, FN, FT = [], [], [], [], []
         for a, b, image, F, _pa, _pb in self.contacts():
-            if a == BOTTOM:
-                nv = np.array([0.0, 1.0])
-                gap = y[b] - p.r[b] - prob.bottom_wall
-                pt = np.array([x[b], prob.bottom_wall])
-            elif b == TOP:
-                nv = np.array([0.0, 1.0])
-                ytop = self.plate.position.y
-                gap = ytop - y[a] - p.r[a]
-                pt = np.array([x[a], ytop])
-                image = 0
+            if a == BOTTOM or b == TOP:
+                nv, image = np.array([0.0, 1.0]), 0
             else:
                 d = np.array([x[b] + image * self.W - x[a], y[b] - y[a]])
-                dist = float(np.hypot(*d))
-                nv = d / dist
-                gap = dist - p.r[a] - p.r[b]
-                pt = np.array([x[a], y[a]]) + (p.r[a] + 0.5 * gap) * nv
-            A.append(a); B.append(b); IMG.append(image); NRM.append(nv); PT.append(pt)
-            GAP.append(gap); FN.append(F @ nv); FT.append(F @ np.array([-nv[1], nv[0]]))
+                nv = d / float(np.hypot(*d))
+            A.append(a); B.append(b); IMG.append(image)
+            FN.append(F @ nv); FT.append(F @ np.array([-nv[1], nv[0]]))
         if prob.top_load is not None:
             for i in np.flatnonzero(prob.top_load != 0.0):
-                A.append(int(i)); B.append(TOP); IMG.append(0); NRM.append(np.array([0.0, 1.0]))
-                PT.append(np.array([x[i], y[i] + p.r[i]])); GAP.append(0.0)
+                A.append(int(i)); B.append(TOP); IMG.append(0)
                 FN.append(prob.top_load[i]); FT.append(0.0)
         meta = {"code": "pymunk", **{k: v for k, v in asdict(self.opt).items()},
                 "dt_abs": self.dt, "t0": self.t0, "problem": prob.description,
-                **(info or {})}
-        return Packing(x=x, y=y, r=p.r.copy(), width=p.width, periodic_x=p.periodic_x,
-                       y_bottom=p.y_bottom,
-                       y_top=(self.plate.position.y if self.plate is not None else
-                              p.y_top if prob.top_load is not None else np.nan),
-                       top_force=p.top_force if (prob.top_load is not None or
-                                                 self.plate is not None) else 0.0,
-                       gravity=p.gravity, density=p.density, mu=p.mu, plate_mu=p.plate_mu,
-                       a=np.array(A, dtype=np.int64), b=np.array(B, dtype=np.int64),
-                       normal=np.array(NRM).reshape(-1, 2), point=np.array(PT).reshape(-1, 2),
-                       image=np.array(IMG, dtype=np.int64), gap=np.array(GAP, float),
-                       fn=np.array(FN, float), ft=np.array(FT, float), seed=p.seed,
-                       scene_text=p.scene_text, scene_name=p.scene_name, meta=meta)
+                "force_scale": prob.force_scale, **(info or {})}
+        if self.plate is not None:
+            y_top = self.plate.position.y
+        else:
+            y_top = p.y_top if prob.top_load is not None else np.nan
+        has_top = prob.top_load is not None or self.plate is not None
+        # normals, contact points and gaps from the soft centres and plate positions; the
+        # forces are the ones measured in that geometry (fn, ft on b)
+        soft = Packing.from_arrays(
+            x, y, p.r, np.array(A, dtype=np.int64), np.array(B, dtype=np.int64),
+            np.array(FN, float), np.array(FT, float), width=p.width, periodic_x=p.periodic_x,
+            image=np.array(IMG, dtype=np.int64), y_bottom=p.y_bottom, y_top=y_top,
+            top_force=p.top_force if has_top else 0.0, gravity=p.gravity, density=p.density,
+            mu=p.mu, plate_mu=p.plate_mu, scene_name=p.scene_name)
+        return replace(soft, seed=p.seed, scene_text=p.scene_text, meta=meta)
 
 
 def simulate(problem: SoftProblem, options: PymunkOptions | None = None, progress=None):

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
-from dataclasses import asdict
+from dataclasses import asdict, fields
 from pathlib import Path
 
 import numpy as np
@@ -42,41 +42,80 @@ def _run_json(directory) -> dict:
         raise InputError(d, "run.json", "missing: not a run directory (use forcespace export)") from None
 
 
-def export(code: str, packing_path, directory, options=None, y_range=None,
-           top: str = "plate") -> Path:
-    """Write a run directory for ``code`` from the packing file ``packing_path``.
-
-    ``top``: "plate" (load-controlled top plate, default for both codes) or
-    "loads" (the plate's rigid forces as fixed dead loads; unstable).
-    """
+def make_options(code: str, options=None, **kw):
+    """The options object of ``code``: ``options`` may be a :class:`LiggghtsOptions` /
+    :class:`PymunkOptions`, a dict of their fields, or None (defaults); keywords override
+    fields. Unknown fields and bad values are an InputError naming the field. Units:
+    stiffness kn in <Fn>/R, tolerances in <Fn>, pymunk dt in sqrt(m_min R/<Fn>)."""
     if code not in CODES:
-        raise InputError("export", "code", f"must be one of {CODES}", got=code)
-    rigid = read_packing(packing_path)
-    prob = soft_problem(rigid, y_range, top=top, source=packing_path)
+        raise InputError("options", "code", f"must be one of {CODES}", got=code)
+    cls = liggghts.LiggghtsOptions if code == "liggghts" else PymunkOptions
+    if options is None:
+        base = {}
+    elif isinstance(options, cls):
+        base = asdict(options)
+    elif isinstance(options, dict):
+        base = dict(options)
+    else:
+        raise InputError("options", "options", f"must be a {cls.__name__}, a dict of its "
+                         "fields or None", got=type(options).__name__)
+    base.update(kw)
+    allowed = {f.name for f in fields(cls)}
+    unknown = sorted(set(base) - allowed)
+    if unknown:
+        raise InputError("options", unknown[0], f"unknown {code} option; allowed: "
+                         + ", ".join(sorted(allowed)))
+    opt = cls(**base)
+    opt.validate("options")
+    return opt
+
+
+def export(code: str, packing, directory, options=None, y_range=None,
+           top: str = "plate", **option_kw) -> Path:
+    """Write a run directory for ``code`` ("liggghts" or "pymunk") from ``packing`` (a
+    packing file path or a :class:`~forcespace.model.packing.Packing`) and return it.
+
+    ``options``: options object, dict or None, ``option_kw`` override its fields (see
+    :func:`make_options`), e.g. ``export("liggghts", "p.h5", "deck", kn=1e6)``.
+    ``y_range``: (y0, y1) simulates only the disks with centres in it (pymunk only).
+    ``top``: "plate" (load-controlled top plate, default) or "loads" (the plate's rigid
+    forces as fixed dead loads; unstable for real packings).
+    """
+    opt = make_options(code, options, **option_kw)
+    if isinstance(packing, Packing):
+        rigid, source = packing, "packing"
+    else:
+        rigid, source = read_packing(packing), packing
+    prob = soft_problem(rigid, y_range, top=top, source=source)
     d = check_output_dir(directory)
     if code == "liggghts":
         if y_range is not None:
-            raise InputError(packing_path, "slice", "LIGGGHTS export supports the full packing "
+            raise InputError(source, "slice", "LIGGGHTS export supports the full packing "
                              "only (slice loads need per-atom torques); use pymunk")
-        opt = options or liggghts.LiggghtsOptions()
-        liggghts.write_deck(prob, d, opt, source=packing_path)
+        liggghts.write_deck(prob, d, opt, source=source)
     else:
-        opt = options or PymunkOptions()
-        opt.validate()
         if d.exists():           # empty, or made by forcespace (check_output_dir)
             shutil.rmtree(d)
         d.mkdir(parents=True)
         mark_run_dir(d)
-    shutil.copyfile(packing_path, d / ".rigid.h5.tmp")
-    os.replace(d / ".rigid.h5.tmp", d / "rigid.h5")
+    if isinstance(packing, Packing):
+        write_packing(rigid, d / "rigid.h5")
+    else:
+        shutil.copyfile(packing, d / ".rigid.h5.tmp")
+        os.replace(d / ".rigid.h5.tmp", d / "rigid.h5")
     _write_json(d / "run.json", {"code": code, "options": asdict(opt), "top": top,
+                                 "units": "kn in <Fn>/R, tolerances in <Fn>, pymunk dt in "
+                                          "sqrt(m_min R/<Fn>)",
                                  "y_range": list(y_range) if y_range is not None else None,
-                                 "packing": str(Path(packing_path).resolve())})
+                                 "packing": str(Path(packing).resolve())
+                                 if not isinstance(packing, Packing) else None})
     return d
 
 
 def run(code: str, directory, binary=None, timeout=None, progress=None) -> dict:
-    """Run the code on a run directory; returns its status dict."""
+    """Run ``code`` on a run directory made by :func:`export`; returns its status dict
+    (``converged``, ``steps``, ...). ``binary``/``timeout``: LIGGGHTS executable and
+    seconds; ``progress(step, residual)``: pymunk progress callback."""
     meta = _run_json(directory)
     if meta["code"] != code:
         raise InputError(directory, "run.json code", f"this directory is for {meta['code']}", got=code)
@@ -117,9 +156,12 @@ def _attrs(soft: Packing) -> dict:
     return out
 
 
-def import_run(code: str, directory, out_path) -> Packing:
-    """Read a finished run and write its soft network file ``out_path``."""
-    check_output_file(out_path)
+def import_run(code: str, directory, out_path=None) -> Packing:
+    """The soft network of a finished run (a :class:`Packing` whose ``meta`` holds the
+    run's parameters and status), also written to ``out_path`` if given."""
+    if out_path is not None:
+        check_output_file(out_path)
     soft, _ = load_soft(code, directory)
-    write_packing(soft, out_path, kind="soft_network", extra_attrs=_attrs(soft))
+    if out_path is not None:
+        write_packing(soft, out_path, kind="soft_network", extra_attrs=_attrs(soft))
     return soft

@@ -1,4 +1,11 @@
-"""Figures of packings and force networks (matplotlib, PNG and PDF)."""
+"""Figures of packings and force networks (matplotlib, PNG and PDF).
+
+Every figure is drawn on the caller's Axes (or a new Figure made without pyplot) and
+follows one style: :data:`STYLE` (colours, widths), :data:`LABELS` (mathtext labels with
+units), :func:`force_legend` (the line-width legend = the force scale), :func:`draw_walls`
+(plates and side walls solid, periodic boundaries dotted). The studies' figures use the
+same helpers.
+"""
 from __future__ import annotations
 
 from pathlib import Path
@@ -42,28 +49,101 @@ def branch_segments(p: Packing, values=None):
     return seg, (p.fn if values is None else values)
 
 
+# One style for every figure of forcespace (and for the studies' figures: import these).
+STYLE = {
+    "disk": (0.80, 0.85, 0.95, 1.0),        # load-bearing disks
+    "rattler": (0.93, 0.93, 0.93, 1.0),     # rattlers (carry no load)
+    "disk_edge": "0.4",
+    "force": "k",                           # a force network
+    "increase": (0.80, 0.10, 0.10, 1.0),    # signed differences: + red, - blue
+    "decrease": (0.10, 0.30, 0.90, 1.0),
+    "wall": "0.15",                          # plates and side walls
+    "periodic": "0.55",                      # periodic boundaries (dotted)
+    "max_width": 4.0,                        # line width [pt] of the largest |value|
+}
+
+# labels with units (mathtext), shared by the figures and the studies
+LABELS = {
+    "x": r"$x$ [$R$]", "y": r"$y$ [$R$]", "mu": r"$\mu$",
+    "eta": r"$\eta = \langle \delta F\rangle / \langle |F|\rangle$",
+    "fn": r"$f_n$ [$F_0$]", "ft": r"$f_t$ [$F_0$]", "z": r"$z$",
+    "K": r"$k_n R / \langle F_n\rangle$",
+    "distance": r"distance to $S$ / $\langle F_n\rangle$ (rms per contact)",
+}
+
+
 def new_axes(p: Packing):
     """A fresh Axes sized for the packing, on a Figure made without pyplot (no
     backend is selected or switched for the caller)."""
     from matplotlib.figure import Figure
 
     height = (p.y_top - p.y_bottom) if np.isfinite(p.y_top) else (p.y + p.r).max()
-    fig = Figure(figsize=(6, 6 * max(height, 1) / p.width + 0.6))
+    # no layout engine: draw_packing (or the caller) calls tight_layout, which keeps the
+    # legend above the Axes inside the figure
+    fig = Figure(figsize=(6.4, 6.0 * max(height, 1) / p.width + 1.2))
     return fig.add_subplot()
 
 
+def force_widths(values, scale=None) -> tuple[np.ndarray, float]:
+    """Line widths [pt] proportional to |values| (the largest gets STYLE["max_width"], or
+    ``scale`` does), and the scale used."""
+    v = np.abs(np.asarray(values, float))
+    if scale is None:
+        scale = float(v.max()) if v.size and v.max() > 0 else 1.0
+    return STYLE["max_width"] * v / scale, scale
+
+
+def force_legend(ax, scale: float, unit: str = r"F_0", signed: bool = False,
+                 quantity: str = r"|f_n|", loc="upper left", extra=()):
+    """A legend for line width (the force scale): three sample lines at 1/4, 1/2 and all
+    of ``scale`` [unit]; with ``signed`` also the colours (+ red, - blue). ``extra``:
+    further legend handles (e.g. rattler patches, domain outlines). Placed outside the
+    Axes, above it, so it never covers the packing. Returns the Legend."""
+    from matplotlib.lines import Line2D
+
+    handles = []
+    for frac in (0.25, 0.5, 1.0):
+        colour = STYLE["increase"] if signed else STYLE["force"]
+        handles.append(Line2D([], [], color=colour, lw=STYLE["max_width"] * frac,
+                              label=rf"${quantity} = {frac * scale:.3g}\,{unit}$"))
+    if signed:
+        handles += [Line2D([], [], color=STYLE["increase"], lw=2, label="increase (+)"),
+                    Line2D([], [], color=STYLE["decrease"], lw=2, label="decrease (−)")]
+    handles += list(extra)
+    return ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(0.0, 1.01),
+                     ncol=min(len(handles), 3), fontsize=7.5, frameon=False,
+                     handlelength=2.5, borderaxespad=0.0)
+
+
+def draw_walls(ax, p: Packing) -> None:
+    """Plates (solid), side walls (solid, without periodic x) and periodic boundaries
+    (dotted) on ``ax``."""
+    ylo = p.y_bottom if np.isfinite(p.y_bottom) else float((p.y - p.r).min())
+    yhi = p.y_top if np.isfinite(p.y_top) else float((p.y + p.r).max())
+    for yy in (p.y_bottom, p.y_top):
+        if np.isfinite(yy):
+            ax.plot([0, p.width], [yy, yy], color=STYLE["wall"], lw=2.0, solid_capstyle="butt")
+    style = dict(color=STYLE["periodic"], lw=0.8, ls=":") if p.periodic_x else \
+        dict(color=STYLE["wall"], lw=2.0)
+    for xx in (0.0, p.width):
+        ax.plot([xx, xx], [ylo, yhi], **style)
+
+
 def plot_packing(p: Packing, ax=None, values=None, signed: bool = False,
-                 highlight=None, title: str | None = None):
+                 highlight=None, title: str | None = None, legend: bool = True,
+                 scale: float | None = None, quantity: str = r"|f_n|"):
     """Draw disks and a force network on ``ax`` (a new one if None); returns the Axes.
 
     ``values`` (Nc,) per packing contact (default fn [F0]); line width is
-    proportional to |value|. ``signed=True`` colours positive red and negative
-    blue (the difference of two admissible networks). ``highlight``: list of
-    disk-index arrays (e.g. indeterminacy domains), each outlined in its own
-    colour. Rattlers are drawn pale.
+    proportional to |value| (``scale``: the value drawn STYLE["max_width"] wide, default
+    the largest). ``signed=True`` colours positive red and negative blue (the difference
+    of two admissible networks). ``highlight``: list of disk-index arrays (e.g.
+    indeterminacy domains), each outlined in its own colour. Rattlers are drawn pale;
+    plates and side walls solid, periodic boundaries dotted. ``legend``: the force-width
+    (and colour) legend above the Axes.
     """
     from matplotlib.collections import LineCollection, PatchCollection
-    from matplotlib.patches import Circle
+    from matplotlib.patches import Circle, Patch
 
     ax = new_axes(p) if ax is None else ax
     seg, val = branch_segments(p, values)
@@ -71,30 +151,37 @@ def plot_packing(p: Packing, ax=None, values=None, signed: bool = False,
     shifts = [-1, 0, 1] if p.periodic_x else [0]
     patches = [Circle((x + s * p.width, y), r) for s in shifts for x, y, r in zip(p.x, p.y, p.r)]
     rat = np.tile(p.rattlers(), len(shifts))
-    pc = PatchCollection(patches, facecolor=np.where(rat[:, None], [[0.93, 0.93, 0.93, 1]],
-                                                     [[0.8, 0.85, 0.95, 1]]),
-                         edgecolor="0.4", linewidth=0.4)
+    pc = PatchCollection(patches, facecolor=np.where(rat[:, None], [STYLE["rattler"]],
+                                                     [STYLE["disk"]]),
+                         edgecolor=STYLE["disk_edge"], linewidth=0.4)
     ax.add_collection(pc)
-    scale = np.abs(val).max() if val.size and np.abs(val).max() > 0 else 1.0
-    widths = 4.0 * np.abs(val) / scale
-    colors = np.where((val >= 0)[:, None], [[0.8, 0.1, 0.1, 1]], [[0.1, 0.3, 0.9, 1]]) \
-        if signed else "k"
+    widths, scale = force_widths(val, scale)
+    colors = np.where((val >= 0)[:, None], [STYLE["increase"]], [STYLE["decrease"]]) \
+        if signed else STYLE["force"]
     for s in shifts:
         ax.add_collection(LineCollection(seg + np.array([s * p.width, 0]), linewidths=widths,
-                                         colors=colors))
+                                         colors=colors, capstyle="round"))
+    extra = []
     for q, disks in enumerate(highlight or []):
         outline(ax, p, disks, f"C{q % 10}")
-    for yy in (p.y_bottom, p.y_top):
-        if np.isfinite(yy):
-            ax.axhline(yy, color="0.2", lw=2)
+    if highlight:
+        extra.append(Patch(facecolor="none", edgecolor="C0", label="domains (outlined)"))
+    if rat.any():
+        extra.append(Patch(facecolor=STYLE["rattler"], edgecolor=STYLE["disk_edge"],
+                           label="rattler"))
+    draw_walls(ax, p)
     height = (p.y_top - p.y_bottom) if np.isfinite(p.y_top) else (p.y + p.r).max()
     lo = p.y_bottom if np.isfinite(p.y_bottom) else (p.y - p.r).min()
     ax.set_xlim(0, p.width)
     ax.set_ylim(lo - 0.5, lo + height + 0.5)
     ax.set_aspect("equal")
-    ax.set_xlabel("x [R]")
-    ax.set_ylabel("y [R]")
-    ax.set_title(title or f"{p.scene_name}: n={p.n_disks}, mu={p.mu:g}, z={p.coordination():.3f}")
+    ax.set_xlabel(LABELS["x"])
+    ax.set_ylabel(LABELS["y"])
+    if legend:
+        force_legend(ax, scale, signed=signed, quantity=quantity, extra=extra)
+    ax.set_title(title or (f"{p.scene_name}: $n = {p.n_disks}$, $\\mu = {p.mu:g}$, "
+                           f"$z = {p.coordination():.3f}$"), pad=52 if legend else 6,
+                 fontsize=10)
     return ax
 
 
@@ -116,15 +203,24 @@ def plot_difference(packing: Packing, problem, x1, x2, domains=None, ax=None,
     disks of each domain (:class:`forcespace.measures.Domain`) outlined, and the
     elementary clusters (:class:`forcespace.clusters.Cluster` with ``elementary``)
     inside them dashed in black. Returns the Axes."""
+    from matplotlib.patches import Patch
+
     d = np.zeros(packing.n_contacts)
     diff = np.asarray(x2, float) - np.asarray(x1, float)
     d[problem.contacts] = diff[0::2]
     ax = plot_packing(packing, ax, values=d, signed=True,
-                      highlight=[g.disks for g in (domains or [])],
-                      title=title or "difference of two admissible networks (fn)")
-    for c in clusters or []:
-        if c.elementary:
-            outline(ax, packing, c.disks, "k", linestyle="--", linewidth=0.9)
+                      highlight=[g.disks for g in (domains or [])], quantity=r"|\Delta f_n|",
+                      title=title or r"difference of two admissible networks ($\Delta f_n$)")
+    elementary = [c for c in clusters or [] if c.elementary]
+    for c in elementary:
+        outline(ax, packing, c.disks, "k", linestyle="--", linewidth=0.9)
+    if elementary:
+        leg = ax.get_legend()
+        handles = list(leg.legend_handles) + [Patch(facecolor="none", edgecolor="k",
+                                                    linestyle="--",
+                                                    label="elementary clusters")]
+        force_legend(ax, np.abs(d).max() or 1.0, signed=True, quantity=r"|\Delta f_n|",
+                     extra=handles[5:])
     return ax
 
 

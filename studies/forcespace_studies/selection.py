@@ -212,7 +212,7 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
             d = wd / f"lig_K{k:g}_kt{ratio:.3f}"
             kn = k * soft_prob.force_scale
             if not (d / "status.json").is_file():
-                L.write_deck(soft_prob, d, L.LiggghtsOptions(kn=kn, kt_ratio=ratio,
+                L.write_deck(soft_prob, d, L.LiggghtsOptions(kn=k, kt_ratio=ratio,
                                                              tolerance=1e-6, max_steps=max_steps))
                 L.run_deck(d)
             soft, info = L.read_result(d, p)

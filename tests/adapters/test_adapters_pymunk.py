@@ -5,7 +5,7 @@ import pytest
 from forcespace_adapters.distance import compare, make_problem
 from forcespace_adapters.problem import soft_problem
 from forcespace_adapters.pymunk_sim import PymunkOptions, PymunkScene, simulate
-from forcespace_adapters.toy import two_row_packing
+from cases import two_row_packing
 from paths import QUICK
 
 

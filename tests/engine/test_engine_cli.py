@@ -16,7 +16,7 @@ width = 20.0
 
 
 @pytest.mark.parametrize("edit, field, allowed", [
-    ("[disks]\nn = 12\nradius_min = -1.0\n", "disks.radius_min", "must be in (0, 1e+06]"),
+    ("[disks]\nn = 12\nradius_min = -1.0\n", "disks.radius_min", "must be in (0, 1e6]"),
     ("[physics]\nmu = -0.1\n", "physics.mu", "must be in [0, 1e6]"),
     ("[box]\nwidth = 5.0\n", "box.width", "minimum-image"),
     ("[disks]\nn = \"many\"\n", "disks.n", "must be an integer"),

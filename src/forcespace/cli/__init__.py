@@ -29,7 +29,7 @@ from ..io.jsonfile import dumps
 EXIT_INPUT = 2
 EXIT_NOT_CONVERGED = 3
 
-BUILTIN = ("forcespace.cli.packing", "forcespace.cli.space")
+BUILTIN = ("forcespace.cli.packing", "forcespace.cli.space", "forcespace.cli.scene", "forcespace.cli.viewers")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -30,6 +30,7 @@ from ..errors import InputError, NumericalError
 from ..io.h5 import atomic_path
 from .frozen import FrozenContacts, relax
 from ..model.packing import Packing
+from ..model.radii import draw_radii
 from ..progress import progress
 from ..model.scene import Scene
 
@@ -57,8 +58,9 @@ class Bodies:
 
 
 def random_radii(scene: Scene, rng) -> np.ndarray:
-    """Radii uniform in [radius_min, radius_max], shape (n,) [R]."""
-    return rng.uniform(scene["disks.radius_min"], scene["disks.radius_max"], scene["disks.n"])
+    """Radii (n,) [R] by the scene's ``disks.distribution`` (:mod:`forcespace.model.radii`;
+    the default "uniform" is ``rng.uniform(radius_min, radius_max, n)``, as always)."""
+    return draw_radii(scene, rng)
 
 
 def loose_start(scene: Scene, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:

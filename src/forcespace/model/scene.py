@@ -22,42 +22,146 @@ else:  # pragma: no cover
 from ..errors import InputError
 
 
+def _num(x, integer=False) -> str:
+    """A bound as text: integers in full, other numbers short (1e6, not 1e+06)."""
+    if x is None:
+        return ""
+    if integer:
+        return str(int(x))
+    return f"{x:g}".replace("e+0", "e").replace("e+", "e").replace("e-0", "e-")
+
+
+@dataclass(frozen=True)
+class Range:
+    """An allowed interval, readable as data: ``lo``/``hi`` (None: unbounded), each end
+    open or closed, ``integer`` for whole numbers, ``why`` the reason for a bound.
+
+    Called as ``check(value, scene_values)`` it returns None or the error text."""
+
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    integer: bool = False
+    why: str = ""
+
+    @property
+    def text(self) -> str:
+        """The interval in words: ``> 0``, ``an integer >= 1``, ``in (0, 1e6]``, ..."""
+        kind = "an integer " if self.integer else ""
+        lo, hi = _num(self.lo, self.integer), _num(self.hi, self.integer)
+        if self.hi is None:
+            return f"{kind}{'>' if self.lo_open else '>='} {lo}"
+        if self.lo is None:
+            return f"{kind}{'<' if self.hi_open else '<='} {hi}"
+        lb, rb = "(" if self.lo_open else "[", ")" if self.hi_open else "]"
+        return f"{kind}in {lb}{lo}, {hi}{rb}"
+
+    def __call__(self, v, _scene=None):
+        ok = ((self.lo is None or (v > self.lo if self.lo_open else v >= self.lo))
+              and (self.hi is None or (v < self.hi if self.hi_open else v <= self.hi)))
+        return None if ok else f"must be {self.text}" + (f" ({self.why})" if self.why else "")
+
+    def as_dict(self) -> dict:
+        return {"kind": "range", "min": self.lo, "max": self.hi, "min_open": self.lo_open,
+                "max_open": self.hi_open, "integer": self.integer, "text": self.text,
+                "why": self.why}
+
+
+@dataclass(frozen=True)
+class OneOf:
+    """One of a fixed set of values (strings), readable as data."""
+
+    choices: tuple
+    why: str = ""
+
+    @property
+    def text(self) -> str:
+        q = [f'"{c}"' for c in self.choices]
+        return "one of " + ", ".join(q) if len(q) > 2 else " or ".join(q)
+
+    def __call__(self, v, _scene=None):
+        if v in self.choices:
+            return None
+        q = [f'"{c}"' for c in self.choices]
+        return "must be " + (", ".join(q[:-1]) + " or " + q[-1] if len(q) > 1 else q[0]) + \
+            (f" ({self.why})" if self.why else "")
+
+    def as_dict(self) -> dict:
+        return {"kind": "choice", "choices": list(self.choices), "text": self.text,
+                "why": self.why}
+
+
+@dataclass(frozen=True)
+class Relation:
+    """A bound that depends on other keys: ``text`` states it (read as data), ``test``
+    (value, scene_values) -> None or the error text applies it."""
+
+    text: str
+    test: object
+    keys: tuple = ()
+
+    def __call__(self, v, scene):
+        return self.test(v, scene)
+
+    def as_dict(self) -> dict:
+        return {"kind": "relation", "text": self.text, "depends_on": list(self.keys)}
+
+
 @dataclass(frozen=True)
 class Key:
+    """One scene key: its type, default, allowed values (``check``: a :class:`Range`,
+    :class:`OneOf` or :class:`Relation`, all readable as data; None: any value of the
+    type), meaning and unit."""
+
     type: type
     default: object
-    check: object  # callable(value, scene_dict) -> None or error text
+    check: object
     doc: str
+    unit: str = ""
+
+    @property
+    def meaning(self) -> str:
+        """The meaning with its unit, as error messages quote it."""
+        return self.doc + (f" [{self.unit}]" if self.unit else "")
+
+    @property
+    def allowed(self) -> str:
+        """The allowed values in words."""
+        if self.check is None:
+            return "any " + {bool: "true/false", str: "text"}.get(self.type, "value")
+        return getattr(self.check, "text", "see the key's meaning")
+
+    def as_dict(self) -> dict:
+        """type, default, range (as data), unit and meaning: what ``scene --schema`` prints."""
+        rng = self.check.as_dict() if hasattr(self.check, "as_dict") else None
+        return {"type": self.type.__name__, "default": self.default, "unit": self.unit,
+                "allowed": self.allowed, "range": rng, "meaning": self.doc}
 
 
-def _positive(v, _):
-    return None if v > 0 else "must be > 0"
+def _positive(why=""):
+    return Range(0.0, None, lo_open=True, why=why)
 
 
-def _nonneg(v, _):
-    return None if v >= 0 else "must be >= 0"
+def _nonneg(why=""):
+    return Range(0.0, None, why=why)
 
 
-def _int_at_least(lo):
-    return lambda v, _: None if v >= lo else f"must be an integer >= {lo}"
-
-
-def _fraction(v, _):
-    return None if 0 < v < 0.8 else "must be in (0, 0.8) (a loose random start)"
-
-
-def _small_tol(v, _):
-    return None if 0 < v < 1 else "must be in (0, 1)"
+def _int_at_least(lo, why=""):
+    return Range(lo, None, integer=True, why=why)
 
 
 def _int_in(lo, hi, why=""):
-    return lambda v, _: None if lo <= v <= hi else \
-        f"must be an integer in [{lo}, {hi}]" + (f" ({why})" if why else "")
+    return Range(lo, hi, integer=True, why=why)
 
 
 def _in_range(lo, hi, why=""):
-    return lambda v, _: None if lo < v <= hi else \
-        f"must be in ({lo:g}, {hi:g}]" + (f" ({why})" if why else "")
+    """(lo, hi]"""
+    return Range(lo, hi, lo_open=True, why=why)
+
+
+def _closed(lo, hi, why=""):
+    return Range(lo, hi, why=why)
 
 
 MAX_RADIUS_RATIO = 1000.0
@@ -82,93 +186,121 @@ def _width(v, d):
                                    f"= {need:g} with periodic x (minimum-image convention)")
 
 
-def _slice(v, d):
-    return None if v >= 0 else "must be >= 0 (0: no slice recorded)"
-
-
-def _top_mode(v, _):
-    return None if v in ("load", "none") else 'must be "load" or "none"'
-
-
-def _bottom_mode(v, _):
-    return None if v in ("fixed", "none") else 'must be "fixed" or "none"'
+def _median(v, d):
+    lo, hi = d["disks.radius_min"], d["disks.radius_max"]
+    if v == 0 or lo <= v <= hi:
+        return None
+    return f"must be 0 (the geometric mean of the radius range) or in [{lo:g}, {hi:g}]"
 
 
 # Bump when a default or the meaning of a key changes, so that a stored scene is never
 # re-read with other defaults silently (packing files record the version they used).
 # 2: bounded ranges for every number, disks.density_ratio, dt in the unit of the load.
-SCHEMA_VERSION = 2
+# 3: radius distributions (disks.distribution and its parameters; the default "uniform"
+#    draws the same radii as version 2); strings without control characters.
+SCHEMA_VERSION = 3
+
+MU_RANGE = _closed(0.0, 1e6)
+DISTRIBUTIONS = ("uniform", "bidisperse", "lognormal")
 
 SCHEMA: dict[str, Key] = {
-    "scene.name": Key(str, "", None, "short name of the scene"),
-    "scene.description": Key(str, "", None, "free text"),
+    "scene.name": Key(str, "", None, "short name of the scene (one line, no control "
+                      "characters)"),
+    "scene.description": Key(str, "", None, "free text (no control characters but tab and "
+                             "newline)"),
     "scene.seed": Key(int, 1, _int_in(0, 2**31 - 1),
                       "random seed (radii, start positions, solver order)"),
     "disks.n": Key(int, 200, _int_in(1, 1_000_000, "larger packings do not fit the solver's "
                                      "memory and time budget"), "number of disks"),
-    "disks.radius_min": Key(float, 1.0, _in_range(0.0, 1e6), "smallest radius [R]"),
-    "disks.radius_max": Key(float, 2.0, _radius_max, "largest radius [R]; radii uniform in [min, max]"),
+    "disks.radius_min": Key(float, 1.0, _in_range(0.0, 1e6), "smallest radius", "R"),
+    "disks.radius_max": Key(float, 2.0, Relation(
+        f"in [disks.radius_min, {MAX_RADIUS_RATIO:g} * disks.radius_min]", _radius_max,
+        ("disks.radius_min",)), "largest radius", "R"),
+    "disks.distribution": Key(str, "uniform", OneOf(DISTRIBUTIONS),
+                              "how radii are drawn (forcespace.model.radii): uniform in "
+                              "[radius_min, radius_max]; bidisperse: radius_min and radius_max "
+                              "only, a fraction disks.small_fraction of small ones; lognormal: "
+                              "ln r normal (median disks.lognormal_median, standard deviation "
+                              "disks.lognormal_sigma) truncated to [radius_min, radius_max]"),
+    "disks.small_fraction": Key(float, 0.5, _closed(0.0, 1.0),
+                                "bidisperse: number fraction of disks of radius_min (rounded "
+                                "to whole disks); unused otherwise"),
+    "disks.lognormal_sigma": Key(float, 0.25, _in_range(0.0, 10.0),
+                                 "lognormal: standard deviation of ln r; unused otherwise"),
+    "disks.lognormal_median": Key(float, 0.0, Relation(
+        "0 (the geometric mean sqrt(radius_min * radius_max)) or in [disks.radius_min, "
+        "disks.radius_max]", _median, ("disks.radius_min", "disks.radius_max")),
+        "lognormal: median radius before truncation; unused otherwise", "R"),
     "disks.density": Key(float, 1.0, _in_range(0.0, 1e12),
-                         "2-D density; disk mass = density*pi*r^2"),
-    "disks.density_ratio": Key(float, 1.0, lambda v, _: None if 1.0 <= v <= 1e9 else
-                               "must be in [1, 1e9]",
+                         "2-D density; disk mass = density*pi*r^2", "rho"),
+    "disks.density_ratio": Key(float, 1.0, _closed(1.0, 1e9),
                                "densities log-uniform in [density, density*ratio] "
                                "(1: all disks alike)"),
-    "box.width": Key(float, 42.0, _width, "box width along x [R]"),
+    "box.width": Key(float, 42.0, Relation(
+        ">= 2 * disks.radius_max (side walls) or >= 4 * disks.radius_max + 2 * "
+        "solver.contact_margin (periodic x), and <= 1e6 * disks.radius_min", _width,
+        ("disks.radius_min", "disks.radius_max", "box.periodic_x", "solver.contact_margin")),
+        "box width along x", "R"),
     "box.periodic_x": Key(bool, True, None, "periodic along x (else fixed side walls)"),
-    "box.initial_packing_fraction": Key(float, 0.35, _fraction,
+    "box.initial_packing_fraction": Key(float, 0.35, Range(0.0, 0.8, True, True,
+                                                           why="a loose random start"),
                                         "area fraction of the random loose start"),
-    "physics.mu": Key(float, 0.0, lambda v, _: None if 0 <= v <= 1e6 else "must be in [0, 1e6]",
-                      "disk-disk Coulomb friction coefficient"),
-    "physics.plate_mu": Key(float, 0.0, lambda v, _: None if 0 <= v <= 1e6 else
-                            "must be in [0, 1e6]", "disk-wall Coulomb friction coefficient"),
-    "physics.gravity": Key(float, 0.0, lambda v, _: None if 0 <= v <= 1e12 else
-                           "must be in [0, 1e12]", "gravitational acceleration along -y"),
-    "physics.rotation": Key(str, "auto", lambda v, _: None if v in ("auto", "on", "off") else
-                            'must be "auto", "on" or "off"',
+    "physics.mu": Key(float, 0.0, MU_RANGE, "disk-disk Coulomb friction coefficient"),
+    "physics.plate_mu": Key(float, 0.0, MU_RANGE, "disk-wall Coulomb friction coefficient"),
+    "physics.gravity": Key(float, 0.0, _closed(0.0, 1e12),
+                           "gravitational acceleration along -y", "F0/(rho R^3)"),
+    "physics.rotation": Key(str, "auto", OneOf(("auto", "on", "off")),
                             "integrate disk rotation: auto = only when any friction is present"),
-    "plates.bottom": Key(str, "fixed", _bottom_mode, '"fixed" lower plate or "none"'),
-    "plates.top": Key(str, "load", _top_mode, '"load": upper plate under constant force; "none"'),
+    "plates.bottom": Key(str, "fixed", OneOf(("fixed", "none")),
+                         '"fixed" lower plate or "none"'),
+    "plates.top": Key(str, "load", OneOf(("load", "none")),
+                      '"load": upper plate under constant force; "none"'),
     "plates.top_force": Key(float, 1.0, _in_range(0.0, 1e100),
-                            "downward force on the top plate [F0]"),
-    "plates.top_mass": Key(float, 10.0, _in_range(0.0, 1e100), "mass of the top plate [rho R^2]"),
+                            "downward force on the top plate", "F0"),
+    "plates.top_mass": Key(float, 10.0, _in_range(0.0, 1e100), "mass of the top plate",
+                           "rho R^2"),
     "solver.dt": Key(float, 0.02, _in_range(0.0, 1e6),
-                     "time step [sqrt(rho R^3 / F)], F the top-plate load (without a top "
-                     "plate rho*gravity*R^2): scaling every load leaves the run unchanged"),
-    "solver.tolerance": Key(float, 1e-6, _small_tol,
+                     "time step, F the top-plate load (without a top plate "
+                     "rho*gravity*R^2): scaling every load leaves the run unchanged",
+                     "sqrt(rho R^3 / F)"),
+    "solver.tolerance": Key(float, 1e-6, Range(0.0, 1.0, True, True),
                             "relative force change per sweep that ends a time step's NLGS"),
     "solver.max_sweeps": Key(int, 1000, _int_at_least(1), "sweep cap per time step"),
-    "solver.overlap_correction": Key(float, 0.2, lambda v, _: None if 0 <= v <= 1 else
-                                     "must be in [0, 1]",
+    "solver.overlap_correction": Key(float, 0.2, _closed(0.0, 1.0),
                                      "fraction of an overlap's excess over the slop removed "
                                      "per step (0: Unger's rule, overlaps never pushed apart)"),
-    "solver.overlap_slop": Key(float, 2e-7, _nonneg,
-                               "overlap [R] tolerated without correction"),
-    "solver.relaxation": Key(float, 1.0, lambda v, _: None if 0 < v < 2 else
-                             "must be in (0, 2)",
+    "solver.overlap_slop": Key(float, 2e-7, _nonneg(),
+                               "overlap tolerated without correction", "R"),
+    "solver.relaxation": Key(float, 1.0, Range(0.0, 2.0, True, True),
                              "NLGS over-relaxation omega (1: plain Gauss-Seidel; the "
                              "converged forces do not depend on it)"),
     "solver.sweep_block": Key(int, 0, _int_at_least(0),
                               "NLGS sweep order: 0 = every sweep a fresh random order of "
                               "single contacts (the paper's); B > 0 = runs of B contacts in "
                               "spatial order, the runs shuffled (disks numbered row by row)"),
-    "solver.contact_margin": Key(float, 0.1, _positive,
-                                 "pairs closer than this gap [R] enter the contact list"),
-    "jamming.velocity_tol": Key(float, 1e-7, _positive,
+    "solver.contact_margin": Key(float, 0.1, _positive(),
+                                 "pairs closer than this gap enter the contact list", "R"),
+    "jamming.velocity_tol": Key(float, 1e-7, _positive(),
                                 "largest mean speed of a loaded disk or the plate over a "
                                 "window, relative to sqrt(F0 rbar/mbar) (F0: top-plate load "
                                 "or mean disk weight), below which the packing is at rest"),
     "jamming.window": Key(int, 200, _int_at_least(1), "steps both must stay below tolerance"),
     "jamming.max_steps": Key(int, 400000, _int_at_least(1), "give up after this many steps"),
-    "jamming.static_tolerance": Key(float, 1e-10, _small_tol,
+    "jamming.static_tolerance": Key(float, 1e-10, Range(0.0, 1.0, True, True),
                                     "relative equilibrium residual of the final static solve"),
     "jamming.static_max_sweeps": Key(int, 2000000, _int_at_least(1),
                                      "sweep cap of the final static solve"),
-    "jamming.contact_gap_tol": Key(float, 1e-6, _positive,
-                                   "gap [R] below which a pair is a contact of the packing"),
-    "analysis.slice_height": Key(float, 0.0, _slice,
-                                 "height [R] of the middle slice analysed as in the paper"),
+    "jamming.contact_gap_tol": Key(float, 1e-6, _positive(),
+                                   "gap below which a pair is a contact of the packing", "R"),
+    "analysis.slice_height": Key(float, 0.0, _nonneg("0: no slice recorded"),
+                                 "height of the middle slice analysed as in the paper", "R"),
 }
+
+
+def schema_table() -> list[dict]:
+    """Every scene key as data: ``[{"key", "type", "default", "unit", "allowed", "range",
+    "meaning"}, ...]`` in schema order (``forcespace scene --schema --json``)."""
+    return [{"key": k, **spec.as_dict()} for k, spec in SCHEMA.items()]
 
 
 @dataclass(frozen=True)
@@ -233,6 +365,10 @@ class Scene:
         ``solver.dt`` scales by sqrt(f) and ``jamming.velocity_tol`` by 1/sqrt(f)
         (the same physical step and rest criterion).
         Returns (scene, one-line description of what was scaled)."""
+        msg = SCHEMA["disks.n"].check(n, self.values) if _type_ok(n, int) else \
+            "must be an integer"
+        if msg:
+            raise InputError(f"{self.source} (--n with --scale-box)", "disks.n", msg, got=n)
         n0 = self["disks.n"]
         f = math.sqrt(n / n0)
         keys = ["box.width", "analysis.slice_height"]
@@ -269,6 +405,20 @@ def _type_ok(value, want) -> bool:
 _TYPE_NAMES = {float: "a finite number", int: "an integer", bool: "true or false", str: "a string"}
 
 
+def _string_problem(key: str, v: str) -> str | None:
+    """Why a scene string cannot be used, or None. HDF5 attributes (where packing files
+    store the scene) cannot hold a NUL character, so such a name is refused here, before
+    any simulation, and with it every control character (a name is one line; a
+    description may hold tabs and newlines)."""
+    allowed = "" if key == "scene.name" else "\t\n"
+    for i, ch in enumerate(v):
+        if (ord(ch) < 32 and ch not in allowed) or ord(ch) == 127:
+            return (f"must not contain control characters (found {ch!r} at position {i}); "
+                    + ("a name is one line of text" if key == "scene.name" else
+                       "text, tabs and newlines are allowed"))
+    return None
+
+
 def validate(flat: dict, source: str, text: str = "") -> Scene:
     """Check a flat ``{"section.key": value}`` mapping against SCHEMA."""
     for key in flat:
@@ -282,13 +432,16 @@ def validate(flat: dict, source: str, text: str = "") -> Scene:
     for key, spec in SCHEMA.items():
         v = values[key]
         if not _type_ok(v, spec.type):
-            raise InputError(source, key, f"must be {_TYPE_NAMES[spec.type]} ({spec.doc})", got=v)
+            raise InputError(source, key, f"must be {_TYPE_NAMES[spec.type]} ({spec.meaning})",
+                             got=v)
         if spec.type is float:
             values[key] = v = float(v)
+        if spec.type is str and (msg := _string_problem(key, v)):
+            raise InputError(source, key, msg, got=v)
     for key, spec in SCHEMA.items():  # range checks after types: they may read other keys
         msg = spec.check(values[key], values) if spec.check else None
         if msg:
-            raise InputError(source, key, f"{msg} ({spec.doc})", got=values[key])
+            raise InputError(source, key, f"{msg} ({spec.meaning})", got=values[key])
     if values["plates.top"] == "none" and values["physics.gravity"] == 0:
         raise InputError(source, "plates.top", 'with physics.gravity = 0 a "load" top plate is '
                          "needed to compress the disks", got="none")
@@ -348,19 +501,27 @@ def _scene_source(name_or_path):
 
 def load_scene(scene) -> Scene:
     """Read and validate a scene: a TOML file path or the name of a bundled scene
-    (``"quick"``, ``"paper"``: see :func:`scenes`). Every problem is an :class:`InputError`."""
+    (``"quick"``, ``"paper"``: see :func:`scenes`). Every problem is an :class:`InputError`,
+    an empty scene (no key at all) included."""
     text, source = _scene_source(scene)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(source, "(syntax)", f"is not valid TOML: {exc}") from None
-    return validate(_flatten(data, source), source, text)
+    return parse_scene_text(text, source)
 
 
 def parse_scene_text(text: str, source: str = "<packing scene>") -> Scene:
-    """Validate scene TOML held in memory (e.g. the copy stored in a packing file)."""
+    """Validate scene TOML held in memory (e.g. the copy stored in a packing file).
+
+    A scene that sets no key at all (an empty file, or comments only) is refused: it
+    would silently run the 200-disk default scene, and an empty scene file is far more
+    often a truncated file or a failed redirection than a wish for every default. Any
+    scene that sets at least one key gets the documented defaults for the rest."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(source, "(syntax)", f"is not valid TOML: {exc}") from None
-    return validate(_flatten(data, source), source, text)
+    flat = _flatten(data, source)
+    if not flat:
+        raise InputError(source, "(scene)", "is empty (no key set): a scene declares what is "
+                         "simulated; start from a bundled one (forcespace scene paper > "
+                         "my.toml) or set at least one key (defaults: forcespace scene "
+                         "--schema)")
+    return validate(flat, source, text)

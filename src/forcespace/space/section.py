@@ -108,25 +108,42 @@ class Section(Computed):
         return float((self.violation <= 0).mean())
 
     def plot(self, ax=None, title: str | None = None):
-        """White inside S, grey by Coulomb violation outside, x0 marked; returns the Axes."""
+        """White inside S, grey by Coulomb violation outside (log colour scale, its bar
+        beside the plot), x0 marked; axes in F0 with at most five ticks each (an offset
+        and power of ten shown once); returns the Axes."""
         from matplotlib import colormaps
         from matplotlib.colors import ListedColormap, LogNorm
         from matplotlib.figure import Figure
+        from matplotlib.ticker import MaxNLocator
+
+        from ..plot import STYLE
 
         if ax is None:
-            ax = Figure(figsize=(5, 4.5)).add_subplot()
+            ax = Figure(figsize=(5.6, 4.8)).add_subplot()
         v = np.where(self.violation > 0, self.violation, np.nan)
         pos = v[np.isfinite(v)]
         norm = LogNorm(vmin=pos.min(), vmax=pos.max()) if pos.size else None
         # outside S starts at a visible grey, so white is exactly S (NaN: not drawn)
         greys = ListedColormap(colormaps["Greys"](np.linspace(0.2, 1.0, 256)))
-        im = ax.pcolormesh(self.s, self.t, v, cmap=greys, norm=norm, shading="nearest")
+        im = ax.pcolormesh(self.s, self.t, v, cmap=greys, norm=norm, shading="nearest",
+                           rasterized=True)
         if pos.size:
-            ax.figure.colorbar(im, ax=ax, label="Coulomb violation / <Fn>")
-        ax.plot([0], [0], "r*", ms=10, label="x0")
-        ax.set(xlabel="s [F0]", ylabel="t [F0]", title=title or "cross-section of S")
+            # the bar in an inset right of the Axes: never over the title, and any layout
+            # engine (or tight_layout by the caller) sees it as part of the Axes
+            bar = ax.figure.colorbar(im, cax=ax.inset_axes([1.04, 0.0, 0.04, 1.0]))
+            bar.set_label(r"Coulomb violation / $\langle F_n\rangle$")
+        ax.plot([0], [0], marker="*", color=STYLE["increase"], ms=11, ls="none",
+                label=r"$x_0$ (jammed network)")
+        ax.set_xlabel(r"$s$ along $d_1$ [$F_0$]")
+        ax.set_ylabel(r"$t$ along $d_2$ [$F_0$]")
+        ax.set_title(title or r"cross-section of $S$", fontsize=10)
+        for axis in (ax.xaxis, ax.yaxis):
+            axis.set_major_locator(MaxNLocator(5))
+            fmt = axis.get_major_formatter()
+            if hasattr(fmt, "set_powerlimits"):
+                fmt.set_powerlimits((-2, 3))        # 1e-4 F0 scales: a x10^k label, once
         ax.set_aspect("equal")
-        ax.legend(loc="upper right", fontsize=8)
+        ax.legend(loc="upper right", fontsize=8, framealpha=0.9)
         return ax
 
     def __repr__(self) -> str:

@@ -1,0 +1,361 @@
+"""Files for the particle viewers granular physicists use: OVITO and ParaView.
+
+:func:`write_viewer_files` writes a packing (positions, radii, rattler flags, walls) and
+its force network (one segment per contact with fn, ft, |F|, mobilisation |ft|/(mu fn);
+given an :class:`~forcespace.sampling.ensemble.Ensemble`, each contact's mean and spread
+over the samples) into a directory, in formats both programs read natively:
+
+OVITO (``ovito``)
+    ``packing.dump``: a LAMMPS text dump (``ITEM: ATOMS id type x y z radius rattler
+    body``) with the box as the simulation cell (x periodic or walled, y between the
+    plates), and ``contacts.dump``: a LAMMPS *dump local* file, one row per contact, read
+    into OVITO's bonds by the *Load trajectory* modifier (column names below, in
+    ``OVITO_CONTACT_PROPERTIES``). Disks are particles 1..n (id = disk index + 1, type 1,
+    rattlers type 2); a contact with a wall ends on a wall-contact particle (type 3, radius
+    ``WALL_POINT_RADIUS``) at the contact point. x is wrapped into [0, width) for periodic
+    boxes and the bonds carry their periodic image. ``load_in_ovito.py`` sets the pipeline
+    up (``ovitos load_in_ovito.py`` or OVITO Pro's Python script modifier).
+ParaView (``vtk``)
+    VTK XML PolyData, ASCII with 17 significant digits (exact round trip):
+    ``disks.vtp`` (one vertex per disk at its centre; point data radius, diameter,
+    rattler, disk), ``contacts.vtp`` (one line per contact from a's centre to b's centre,
+    b at its periodic image; wall contacts end on the wall; cell data as the dump-local
+    columns), ``walls.vtp`` (the plates and side walls as lines spanning the box; cell
+    data wall code) and ``packing.vtm``, a multiblock file that opens all three. Draw disks
+    with a Glyph filter (Sphere or 2D circle, scale array ``diameter``, scale factor 1).
+
+Units: lengths R, forces F0 (the files say so in their headers/field names). Mobilisation
+is |ft| / (mu_k fn) with mu_k the contact's Coulomb coefficient (plate_mu on walls); it is
+0 where ft = 0 and NaN where a tangential force sits on a contact with mu_k fn = 0.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import secrets
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..model.walls import BOTTOM, LEFT, RIGHT, TOP, contact_mu_array
+from ..plot import branch_segments
+from .outputs import check_output_dir, mark_run_dir
+
+FORMATS = ("ovito", "vtk")
+WALL_POINT_RADIUS = 0.05      # [R] radius of the wall-contact particles in OVITO
+DISK, RATTLER, WALL_POINT = 1, 2, 3       # OVITO particle types
+
+# contacts.dump column -> OVITO bond property (Load trajectory modifier's ``columns``)
+OVITO_CONTACT_PROPERTIES = {
+    "id1": "Particle Identifiers.1", "id2": "Particle Identifiers.2",
+    "imx": "Periodic Image.X", "imy": "Periodic Image.Y", "imz": "Periodic Image.Z",
+    "contact": "Contact Index", "a": "Body A", "b": "Body B",
+    "fn": "Normal Force", "ft": "Tangential Force", "force": "Force Magnitude",
+    "mobilisation": "Mobilisation", "mu": "Friction Coefficient", "gap": "Gap",
+    "bearing": "Force Bearing",
+    "fn_mean": "Mean Normal Force", "ft_mean": "Mean Tangential Force",
+    "fn_std": "Normal Force Std", "ft_std": "Tangential Force Std",
+    "spread": "Force Spread", "sampled": "Sampled",
+}
+
+
+def contact_table(packing, ensemble=None) -> dict:
+    """Per-contact columns (each (Nc,)): contact, a, b, image, fn, ft [F0], force |F| [F0],
+    mobilisation |ft|/(mu fn), mu, gap [R], bearing (force-bearing, 0/1); with an ensemble
+    also fn_mean, ft_mean, fn_std, ft_std [F0], spread (the contact's dF of the paper's
+    eta: sqrt of the mean of |F - <F>|^2 over the samples) [F0] and sampled (0/1: the
+    contact is an unknown of the ensemble; the others keep the packing's forces and
+    spread 0)."""
+    p = packing
+    nc = p.n_contacts
+    mu = contact_mu_array(p.a, p.b, p.mu, p.plate_mu)
+    cap = mu * p.fn
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mob = np.where(p.ft == 0.0, 0.0, np.where(cap > 0, np.abs(p.ft) / cap, np.nan))
+    out = {"contact": np.arange(nc), "a": p.a.copy(), "b": p.b.copy(), "image": p.image.copy(),
+           "fn": p.fn.copy(), "ft": p.ft.copy(), "force": np.hypot(p.fn, p.ft),
+           "mobilisation": mob, "mu": mu, "gap": p.gap.copy(),
+           "bearing": p.force_bearing().astype(np.int64)}
+    if ensemble is not None:
+        out.update(ensemble_columns(p, ensemble))
+    return out
+
+
+def ensemble_columns(packing, ensemble) -> dict:
+    """fn_mean, ft_mean, fn_std, ft_std, spread [F0] and sampled (0/1), each (Nc,) over
+    the packing's contacts (see :func:`contact_table`). InputError if the ensemble was
+    not sampled on this packing (its contacts or jammed forces differ)."""
+    from ..measures import contact_fluctuations
+
+    p, ens = packing, ensemble
+    k = np.asarray(ens.contacts, np.int64)
+    src = ens.path or "ensemble"
+    if k.size and (k.min() < 0 or k.max() >= p.n_contacts):
+        raise InputError(src, "problem/contacts", f"refers to contacts outside this packing "
+                         f"(0..{p.n_contacts - 1}); the ensemble belongs to another packing")
+    xj = np.asarray(ens.x_jammed, float).reshape(-1, 2)
+    scale = max(abs(ens.force_scale), 1e-300)
+    if k.size and np.abs(xj[:, 0] - p.fn[k]).max() > 1e-9 * scale:
+        raise InputError(src, "problem/x_jammed", "does not match this packing's normal "
+                         "forces; the ensemble belongs to another packing")
+    if ens.n_samples == 0:
+        raise InputError(src, "samples", "the ensemble has no samples")
+    F = ens.forces
+    fn_mean, ft_mean = p.fn.copy(), p.ft.copy()
+    zeros = np.zeros(p.n_contacts)
+    fn_std, ft_std, spread = zeros.copy(), zeros.copy(), zeros.copy()
+    sampled = np.zeros(p.n_contacts, np.int64)
+    fn_mean[k], ft_mean[k] = F[:, :, 0].mean(0), F[:, :, 1].mean(0)
+    fn_std[k], ft_std[k] = F[:, :, 0].std(0), F[:, :, 1].std(0)
+    spread[k] = contact_fluctuations(ens.samples)[0]
+    sampled[k] = 1
+    return {"fn_mean": fn_mean, "ft_mean": ft_mean, "fn_std": fn_std, "ft_std": ft_std,
+            "spread": spread, "sampled": sampled}
+
+
+def wall_segments(packing):
+    """(segments (k, 2, 2) [R], wall codes (k,)): the plates (BOTTOM, TOP) across the box
+    width and, without periodic x, the side walls (LEFT at x = 0, RIGHT at x = width)
+    between the plates (or the disks' extent where a plate is absent)."""
+    p = packing
+    ylo = p.y_bottom if np.isfinite(p.y_bottom) else float((p.y - p.r).min())
+    yhi = p.y_top if np.isfinite(p.y_top) else float((p.y + p.r).max())
+    seg, code = [], []
+    for y, c in ((p.y_bottom, BOTTOM), (p.y_top, TOP)):
+        if np.isfinite(y):
+            seg.append(((0.0, y), (p.width, y)))
+            code.append(c)
+    if not p.periodic_x:
+        seg += [((0.0, ylo), (0.0, yhi)), ((p.width, ylo), (p.width, yhi))]
+        code += [LEFT, RIGHT]
+    return np.array(seg, float).reshape(-1, 2, 2), np.array(code, np.int64)
+
+
+def _box_y(p):
+    ylo = p.y_bottom if np.isfinite(p.y_bottom) else float((p.y - p.r).min())
+    yhi = p.y_top if np.isfinite(p.y_top) else float((p.y + p.r).max())
+    return ylo, yhi
+
+
+def ovito_particles(packing):
+    """The particles of ``packing.dump`` and the bond ends of ``contacts.dump``:
+    (table dict of (n + w,) columns id, type, x, y, radius, rattler, body; id1 (Nc,),
+    id2 (Nc,), image (Nc,) x-image of id2 relative to id1 after wrapping)."""
+    p = packing
+    n, nc = p.n_disks, p.n_contacts
+    shift = np.floor(p.x / p.width) if p.periodic_x else np.zeros(n)
+    x = p.x - shift * p.width
+    if p.periodic_x:
+        x = np.where(x >= p.width, x - p.width, x)     # round-off at the right edge
+    rat = p.rattlers()
+    wall = np.flatnonzero((p.a < 0) | (p.b < 0))
+    w = wall.size
+    ids = np.arange(1, n + w + 1)
+    typ = np.concatenate([np.where(rat, RATTLER, DISK), np.full(w, WALL_POINT)])
+    px, py = np.concatenate([x, np.zeros(w)]), np.concatenate([p.y, np.zeros(w)])
+    body = np.concatenate([np.arange(n), np.zeros(w, np.int64)])
+    id1 = np.where(p.a >= 0, p.a + 1, 0)
+    id2 = np.where(p.b >= 0, p.b + 1, 0)
+    img = p.image.astype(np.int64).copy()
+    both = (p.a >= 0) & (p.b >= 0)
+    img[both] += (shift[p.b[both]] - shift[p.a[both]]).astype(np.int64)
+    img[~both] = 0
+    for q, k in enumerate(wall):
+        disk = p.b[k] if p.a[k] < 0 else p.a[k]
+        pid = n + q + 1
+        if p.a[k] < 0:
+            id1[k] = pid
+        else:
+            id2[k] = pid
+        px[n + q] = p.point[k, 0] - shift[disk] * p.width
+        py[n + q] = p.point[k, 1]
+        body[n + q] = p.a[k] if p.a[k] < 0 else p.b[k]
+    table = {"id": ids, "type": typ, "x": px, "y": py,
+             "radius": np.concatenate([p.r, np.full(w, WALL_POINT_RADIUS)]),
+             "rattler": np.concatenate([rat.astype(np.int64), np.zeros(w, np.int64)]),
+             "body": body}
+    return table, id1, id2, img
+
+
+def _fmt_col(v) -> np.ndarray:
+    v = np.asarray(v)
+    if v.dtype.kind in "iub":
+        return v.astype(np.int64).astype(str)
+    return np.char.mod("%.17g", v.astype(float))
+
+
+def _rows(columns) -> str:
+    cols = [_fmt_col(c) for c in columns]
+    if not cols or cols[0].size == 0:
+        return ""
+    return "\n".join(" ".join(row) for row in zip(*cols)) + "\n"
+
+
+def write_ovito(packing, directory, ensemble=None) -> list[Path]:
+    """``packing.dump``, ``contacts.dump`` and ``load_in_ovito.py`` in ``directory``
+    (module docstring); returns the paths."""
+    p = packing
+    d = Path(directory)
+    table, id1, id2, img = ovito_particles(p)
+    ylo, yhi = _box_y(p)
+    bounds = ("pp" if p.periodic_x else "ff") + " ff pp"
+    box = f"ITEM: BOX BOUNDS {bounds}\n0 {p.width!r}\n{ylo!r} {yhi!r}\n-0.5 0.5\n"
+    head = f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{table['id'].size}\n{box}"
+    names = ["id", "type", "x", "y", "z", "radius", "rattler", "body"]
+    table["z"] = np.zeros(table["id"].size)
+    (d / "packing.dump").write_text(head + "ITEM: ATOMS " + " ".join(names) + "\n"
+                                    + _rows([table[c] for c in names]))
+    ct = contact_table(p, ensemble)
+    zero = np.zeros(p.n_contacts, np.int64)
+    cols = {"id1": id1, "id2": id2, "imx": img, "imy": zero, "imz": zero}
+    cols.update({k: v for k, v in ct.items() if k != "image"})
+    head = f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ENTRIES\n{p.n_contacts}\n{box}"
+    (d / "contacts.dump").write_text(head + "ITEM: ENTRIES " + " ".join(cols) + "\n"
+                                     + _rows(list(cols.values())))
+    mapping = [OVITO_CONTACT_PROPERTIES[c] for c in cols]
+    (d / "load_in_ovito.py").write_text(_OVITO_SCRIPT.format(columns=mapping))
+    return [d / "packing.dump", d / "contacts.dump", d / "load_in_ovito.py"]
+
+
+_OVITO_SCRIPT = '''"""Open this forcespace export in OVITO: ovitos load_in_ovito.py (or run it in OVITO Pro).
+
+Particles from packing.dump (type 1 disks, 2 rattlers, 3 wall-contact points), the force
+network from contacts.dump as bonds (Load trajectory modifier), bond width by normal force
+(0.6 R for the largest). Units: lengths R, forces F0.
+"""
+from pathlib import Path
+
+import numpy as np
+from ovito.io import import_file
+from ovito.modifiers import LoadTrajectoryModifier
+
+here = Path(__file__).resolve().parent
+pipeline = import_file(str(here / "packing.dump"))
+bonds = LoadTrajectoryModifier()
+pipeline.modifiers.append(bonds)
+bonds.source.load(str(here / "contacts.dump"), columns={columns!r})
+
+
+def force_width(frame, data):
+    f = np.abs(np.asarray(data.particles.bonds["Normal Force"]))
+    data.particles_.bonds_.create_property("Width", data=0.6 * f / max(f.max(), 1e-300))
+
+
+pipeline.modifiers.append(force_width)
+pipeline.add_to_scene()
+'''
+
+
+def _vtk_array(name, values, ncomp=1) -> str:
+    """One ASCII DataArray (17 significant digits; integers as Int64). ``ncomp`` None
+    leaves NumberOfComponents out (cell connectivity and offsets)."""
+    v = np.asarray(values)
+    if v.dtype.kind in "iub":
+        kind, text = "Int64", " ".join(v.astype(np.int64).ravel().astype(str))
+    else:
+        kind, text = "Float64", " ".join(np.char.mod("%.17g", v.astype(float).ravel()))
+    comps = "" if ncomp is None else f' NumberOfComponents="{ncomp}"'
+    return f'<DataArray type="{kind}" Name="{name}"{comps} format="ascii">{text}</DataArray>'
+
+
+def _vtp(points, verts=None, lines=None, point_data=None, cell_data=None) -> str:
+    """A VTK XML PolyData document: points (k, 2) [R] (z = 0), vertices (index arrays) or
+    lines (pairs), point and cell data {name: (k,) array}."""
+    pts = np.column_stack([points, np.zeros(len(points))]) if len(points) else np.zeros((0, 3))
+    parts = ['<?xml version="1.0"?>',
+             '<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" '
+             'header_type="UInt64">', "<PolyData>"]
+    nv = 0 if verts is None else len(verts)
+    nl = 0 if lines is None else len(lines)
+    parts.append(f'<Piece NumberOfPoints="{len(pts)}" NumberOfVerts="{nv}" '
+                 f'NumberOfLines="{nl}" NumberOfStrips="0" NumberOfPolys="0">')
+    for tag, data in (("PointData", point_data), ("CellData", cell_data)):
+        parts.append(f"<{tag}>")
+        parts += [_vtk_array(k, v) for k, v in (data or {}).items()]
+        parts.append(f"</{tag}>")
+    parts += ["<Points>", _vtk_array("Points", pts, 3), "</Points>"]
+    for tag, cells in (("Verts", verts), ("Lines", lines)):
+        if cells is None:
+            continue
+        cells = np.asarray(cells, np.int64).reshape(len(cells), -1)
+        offsets = np.arange(1, len(cells) + 1, dtype=np.int64) * cells.shape[1]
+        parts += [f"<{tag}>", _vtk_array("connectivity", cells.ravel(), None),
+                  _vtk_array("offsets", offsets, None), f"</{tag}>"]
+    parts += ["</Piece>", "</PolyData>", "</VTKFile>"]
+    return "\n".join(parts) + "\n"
+
+
+def write_vtk(packing, directory, ensemble=None) -> list[Path]:
+    """``disks.vtp``, ``contacts.vtp``, ``walls.vtp`` and ``packing.vtm`` in
+    ``directory`` (module docstring); returns the paths."""
+    p = packing
+    d = Path(directory)
+    rat = p.rattlers().astype(np.int64)
+    (d / "disks.vtp").write_text(_vtp(
+        np.column_stack([p.x, p.y]), verts=np.arange(p.n_disks)[:, None],
+        point_data={"radius": p.r, "diameter": 2 * p.r, "rattler": rat,
+                    "disk": np.arange(p.n_disks)}))
+    seg, _ = branch_segments(p)
+    ct = contact_table(p, ensemble)
+    (d / "contacts.vtp").write_text(_vtp(
+        seg.reshape(-1, 2), lines=np.arange(2 * p.n_contacts).reshape(-1, 2),
+        cell_data=ct))
+    wseg, codes = wall_segments(p)
+    (d / "walls.vtp").write_text(_vtp(wseg.reshape(-1, 2),
+                                      lines=np.arange(2 * len(codes)).reshape(-1, 2),
+                                      cell_data={"wall": codes}))
+    blocks = "\n".join(f'<DataSet index="{i}" name="{name}" file="{name}.vtp"/>'
+                       for i, name in enumerate(("disks", "contacts", "walls")))
+    (d / "packing.vtm").write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="vtkMultiBlockDataSet" version="1.0" '
+        f'byte_order="LittleEndian">\n<vtkMultiBlockDataSet>\n{blocks}\n'
+        "</vtkMultiBlockDataSet>\n</VTKFile>\n")
+    return [d / f"{n}.vtp" for n in ("disks", "contacts", "walls")] + [d / "packing.vtm"]
+
+
+def _new_temp_dir(d: Path) -> Path:
+    """An empty folder ``.NAME.<random>.tmp`` beside ``d`` with the permissions a plain
+    ``mkdir`` gives (0777 less the umask; ``tempfile.mkdtemp`` would make it 0700)."""
+    for _ in range(100):
+        tmp = d.parent / f".{d.name}.{secrets.token_hex(4)}.tmp"
+        try:
+            tmp.mkdir()
+            return tmp
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"no free temporary name beside {d}")
+
+
+def write_viewer_files(packing, directory, formats=FORMATS, ensemble=None) -> list[Path]:
+    """Write ``packing`` (and the per-contact statistics of ``ensemble``, if given) for
+    OVITO and/or ParaView into ``directory`` (``formats``: "ovito", "vtk"); returns the
+    files written. The directory is created, or replaced if forcespace made it (a
+    non-empty directory of someone else's is refused before anything is written); files
+    appear all at once (written to a temporary folder, then renamed)."""
+    formats = tuple(formats)
+    bad = [f for f in formats if f not in FORMATS]
+    if bad or not formats:
+        raise InputError("viewer export", "format", "must be one or more of "
+                         + ", ".join(FORMATS), got=bad or formats)
+    if ensemble is not None:
+        ensemble_columns(packing, ensemble)          # refuse a foreign ensemble first
+    d = check_output_dir(directory)
+    d.parent.mkdir(parents=True, exist_ok=True)
+    tmp = _new_temp_dir(d)
+    try:
+        files = []
+        if "ovito" in formats:
+            files += write_ovito(packing, tmp, ensemble)
+        if "vtk" in formats:
+            files += write_vtk(packing, tmp, ensemble)
+        mark_run_dir(tmp)
+        if d.exists():
+            shutil.rmtree(d)
+        os.replace(tmp, d)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            shutil.rmtree(tmp)
+        raise
+    return [d / f.name for f in files]

@@ -1,0 +1,54 @@
+"""Small hand-built jammed packings for the tests (moved here from the adapters, which are
+a plug-in and no place for test fixtures).
+
+``two_row_packing``: a periodic row of unit disks on the bottom plate with a second row
+resting in its grooves and the top plate on the second row. Its frictionless force state
+(computed in closed form) is admissible for any friction coefficient.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from forcespace.model.packing import BOTTOM, TOP, Packing
+
+
+def two_row_packing(n_cols: int = 5, spacing: float = 1.2, load: float = 1.0,
+                    mu: float = 0.1, seed: int = 0) -> Packing:
+    """2*n_cols unit disks: lower row at x = 2*s*i + s, y = 1; upper row at x = 2*s*j,
+    resting on lower disks j-1 and j. ``spacing`` s (1 < s < 2) sets the gap between lower
+    disks (2s - 2); ``load`` [F0] is the top-plate force per upper disk."""
+    s = float(spacing)
+    if not 1.0 < s < 2.0:
+        raise ValueError("spacing must lie in (1, 2)")
+    W = 2 * s * n_cols
+    xl, xu = 2 * s * np.arange(n_cols) + s, 2 * s * np.arange(n_cols)
+    yu = 1.0 + np.sqrt(4.0 - s**2)
+    x = np.concatenate([xl, xu])
+    y = np.concatenate([np.ones(n_cols), np.full(n_cols, yu)])
+    r = np.ones(2 * n_cols)
+    y_top = yu + 1.0
+    a, b, img = [], [], []
+    for i in range(n_cols):                       # bottom plate
+        a.append(BOTTOM); b.append(i); img.append(0)
+    for j in range(n_cols):                       # upper j on lower j-1 (periodic) and j
+        for i in (j - 1, j):
+            a.append(i % n_cols); b.append(n_cols + j); img.append(1 if i < 0 else 0)
+    for j in range(n_cols):                       # top plate
+        a.append(n_cols + j); b.append(TOP); img.append(0)
+    p = Packing.from_arrays(x, y, r, a, b, width=W, periodic_x=True, image=img,
+                            y_bottom=0.0, y_top=y_top, top_force=load * n_cols, mu=mu,
+                            scene_name="two_row_toy")
+    # closed-form frictionless forces: each upper disk carries `load` on two supports
+    fn = np.zeros(p.n_contacts)
+    fn[p.b == TOP] = load
+    down = np.zeros(n_cols)
+    for j in range(n_cols):
+        ks = np.flatnonzero(p.b == n_cols + j)
+        f = np.linalg.solve(p.normal[ks].T, np.array([0.0, load]))
+        fn[ks] = f
+        np.add.at(down, p.a[ks], f * p.normal[ks, 1])
+    fn[p.a == BOTTOM] = down[p.b[p.a == BOTTOM]]
+    return replace(p.with_forces(fn, np.zeros(p.n_contacts)), seed=seed,
+                   meta={"builder": "tests/cases.py"})

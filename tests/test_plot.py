@@ -1,0 +1,47 @@
+"""Figures carry what they claim: walls where the packing has them, a force-width legend
+whose sample lines are as wide as the network's lines of those forces, labels with units."""
+import numpy as np
+
+from cases import two_row_packing
+from forcespace.model.packing import Packing
+from forcespace.plot import LABELS, STYLE, plot_packing
+
+
+def _walled():
+    # three disks in a box with side walls: a contact with each wall and the floor
+    x, y, r = [1.0, 3.0, 5.0], [1.0, 1.0, 1.0], [1.0, 1.0, 1.0]
+    a, b = [-3, 0, 1, -1, -1, -1, 2], [0, 1, 2, 0, 1, 2, -4]
+    return Packing.from_arrays(x, y, r, a, b, fn=[0.5, 0.5, 0.5, 1, 1, 1, 0.5], width=6.0,
+                               y_bottom=0.0, gravity=1.0)
+
+
+def _lines(ax):
+    return [(tuple(l.get_xdata()), tuple(l.get_ydata())) for l in ax.lines]
+
+
+def test_side_walls_and_plates_are_drawn_where_the_packing_has_them():
+    p = _walled()
+    ax = plot_packing(p)
+    lines = _lines(ax)
+    assert ((0.0, 6.0), (0.0, 0.0)) in lines                       # the floor
+    assert any(xs == (0.0, 0.0) for xs, _ in lines)                # left wall at x = 0
+    assert any(xs == (6.0, 6.0) for xs, _ in lines)                # right wall at x = width
+    walls = [l for l in ax.lines if l.get_linestyle() == "-"]
+    assert len(walls) == 3
+    q = two_row_packing(3)                                         # periodic: dotted edges
+    dotted = [l for l in plot_packing(q).lines if l.get_linestyle() == ":"]
+    assert sorted(l.get_xdata()[0] for l in dotted) == [0.0, q.width]
+
+
+def test_force_legend_widths_match_the_network():
+    p = two_row_packing(3)
+    ax = plot_packing(p)
+    widths = np.asarray(ax.collections[1].get_linewidths())
+    k = int(np.argmax(p.fn))
+    assert widths[k] == STYLE["max_width"]                         # the largest force
+    handles = ax.get_legend().legend_handles[:3]
+    for h in handles:
+        f = float(h.get_label().split("=")[1].split("\\,")[0])   # "$|f_n| = 0.5\,F_0$"
+        # the label is rounded to 3 digits: its width agrees to that
+        assert abs(h.get_linewidth() - STYLE["max_width"] * f / p.fn.max()) < 0.01
+    assert ax.get_xlabel() == LABELS["x"] and "$" in ax.get_title()
