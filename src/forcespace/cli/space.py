@@ -180,7 +180,7 @@ def cmd_select(args) -> int:
             ("--kt-ratio", args.kt_ratio, 1e-6, 1e6, "kt/kn; elastic disks have 0.1 to 1"),
             ("--kn", args.kn, 1e-12, 1e12, "[F0/R]; soft codes use 1e3 to 1e8")):
         if not (math.isfinite(v) and lo <= v <= hi):
-            raise InputError("command line", name, f"must be a number in [{lo:g}, {hi:g}] "
+            raise InputError("command line", name, f"must be a number > 0, in [{lo:g}, {hi:g}] "
                              f"({what})", got=v)
     check_problem_args(args.mu, args.gap_tol, args.slice)
     check_output_file(args.output, inputs=[args.packing])

@@ -83,8 +83,8 @@ def check_output_file(path, inputs=(), field: str = "-o/--output") -> Path:
 
 def check_figure_file(path, inputs=(), field: str = "-o/--output") -> list[Path]:
     """Refuse a figure path before any work: its format must be one matplotlib writes
-    (by the suffix; none means PNG), and each file it produces (a PNG also writes a PDF twin) must pass
-    :func:`check_output_file`. Returns those files."""
+    (by the suffix; none means PNG), and each file it produces (a PNG also writes a PDF
+    twin) must pass :func:`check_output_file`. Returns those files."""
     from matplotlib.backend_bases import FigureCanvasBase
 
     from ..plot import figure_targets
