@@ -1,6 +1,9 @@
 # forcespace: `make demo` installs everything and runs the main job on a small scene;
 # `make test` runs the test suite; `make bench` writes benchmark figures to studies/out/
-# (studies/bench.py, then studies/accuracy_vs_time.py, which needs LIGGGHTS).
+# (studies/bench.py, then studies/accuracy_vs_time.py, which needs LIGGGHTS);
+# `make studies` runs every study at full size (days on a few cores; resumable: rerun
+# after any interruption; not run by CI) into studies/results/NAME and rebuilds
+# studies/REPORT.md from them. STUDY_ARGS passes options, e.g. --scheduler tcp://host:8786.
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -37,6 +40,16 @@ test: install liggghts
 bench: install liggghts
 	$(BIN)/python studies/bench.py
 	$(BIN)/python studies/accuracy_vs_time.py
+
+STUDIES     := fig1 fig3 fig2 size pointforce selection
+STUDY_ARGS  ?=
+
+studies: install liggghts
+	@for s in $(STUDIES); do \
+	  echo "== study $$s"; \
+	  $(BIN)/forcespace study $$s -o studies/results/$$s $(STUDY_ARGS) || exit $$?; \
+	done
+	$(BIN)/forcespace study report $(addprefix studies/results/,$(STUDIES)) -o studies/REPORT.md
 
 clean:
 	rm -rf out .numba_cache .pytest_cache

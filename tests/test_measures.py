@@ -94,3 +94,19 @@ def test_cli_analyze_sample_ensemble(tmp_path, capsys):
     assert r["n_samples"] == 5 and r["max_violation"] <= 1e-9
     assert 1 <= r["n_projected"] <= 5
     assert main(["analyze", str(tmp_path / "missing.h5")]) == 2
+
+
+def test_eta_of_identical_samples_is_exactly_zero():
+    """A determinate S (dim S = 0): every sample is the same network; the mean of k equal
+    floats is not always that float, which gave eta ~ 1e-16 instead of 0."""
+    from forcespace.measures import eta
+    X = np.tile([0.1, 0.7, 0.3, 1 / 3.0], (7, 1))
+    assert eta(X) == 0.0
+
+
+def test_hit_and_run_on_a_determinate_S_reports_eta_0_and_dim_0():
+    import forcespace as fs
+    from ensemble_cases import grooves
+    _, prob = grooves([0.3, 0.5, 0.7], mu=0.0)
+    har = fs.HitAndRun(n=20, seed=1).compute(prob)
+    assert har.summary()["dim_S"] == 0 and har.ensemble.eta == 0.0

@@ -22,6 +22,12 @@ class NumericalError(ForcespaceError):
     """A computation produced a non-finite value or failed to converge where it must."""
 
 
+class ClusterError(ForcespaceError):
+    """The workers a study runs on are unusable: a Dask scheduler that cannot be reached or
+    is not one, no worker left within the study's timeout, a local worker process that
+    died. The tasks done so far are kept; rerunning resumes (CLI exit 4)."""
+
+
 def require_int(source, field, value, minimum: int, meaning: str = ""):
     """``value`` as an int if it is an integer >= ``minimum``, else InputError."""
     import numbers

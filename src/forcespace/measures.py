@@ -34,7 +34,11 @@ def contact_fluctuations(samples):
     X = _check(samples)
     k, m2 = X.shape
     F = X.reshape(k, m2 // 2, 2)
-    dev = F - F.mean(0)
+    # deviations from the first sample first, then from their mean: the same numbers,
+    # but identical samples (a determinate S, dim S = 0) give exactly 0, where the mean
+    # of k equal floats is not always that float (eta ~ 6e-16 from round-off)
+    shifted = F - F[0]
+    dev = shifted - shifted.mean(0)
     dF = np.sqrt((dev ** 2).sum(2).mean(0))
     mag = np.sqrt((F ** 2).sum(2)).mean(0)
     return dF, mag

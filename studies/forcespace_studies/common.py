@@ -1,12 +1,11 @@
 """What several studies share: packings jammed once per study directory."""
 from __future__ import annotations
 
-import fcntl
-import os
 import time
 from pathlib import Path
 
 from forcespace import jam, read_packing, write_packing
+from forcespace.io.outputs import file_lock
 
 
 def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_from=(),
@@ -15,7 +14,7 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
     study directory and shared by every task that needs it.
 
     Kept as ``OUT/packings/SCENE_nN_muMU_sSEED.h5``; a worker that needs a packing
-    another worker is jamming waits for it (blocking ``flock``) instead of jamming it
+    another worker is jamming waits for it (a blocking file lock) instead of jamming it
     a second time. ``reuse_from``: names of sibling study directories (e.g. "fig1")
     whose packings are read instead when they have it. ``overrides``: further scene
     keys (``jam`` style, e.g. ``{"physics__plate_mu": mu}``) that must be a function
@@ -32,9 +31,7 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
             return read_packing(theirs), 0.0
     path = Path(out) / "packings" / name
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd = os.open(path.parent / f".{path.name}.jamlock", os.O_RDWR | os.O_CREAT, 0o666)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
+    with file_lock(path.parent / f".{path.name}.jamlock"):
         if path.is_file():
             return read_packing(path), 0.0
         t0 = time.perf_counter()
@@ -42,6 +39,4 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
                 disks__n=n_disks, checkpoint=path.with_name(path.name + ".checkpoint.npz"),
                 **(overrides or {}))
         write_packing(p, path)
-        return p, time.perf_counter() - t0
-    finally:
-        os.close(fd)
+        return read_packing(path), time.perf_counter() - t0

@@ -29,13 +29,15 @@ def test_fig1_quick_local_pool_resumes_and_equals_dask(tmp_path, capsys):
     assert summary["failed"] == 0 and summary["rows"] == 14
     assert (local / "fig1.csv").is_file() and (local / "fig1.png").is_file()
     assert (local / "fig1.pdf").is_file() and len(summary["verdicts"]) >= 6
-    # the report beside the study directory names every claim with its verdict
-    report = (tmp_path / "REPORT.md").read_text()
+    # the report inside the study directory names every claim; a quick run's verdicts
+    # are smoke tests (the outcome its numbers would give is kept beside)
+    assert not (tmp_path / "REPORT.md").exists()
+    report = (local / "REPORT.md").read_text()
     verdicts = json.loads((local / "verdicts.json").read_text())["verdicts"]
     for v in verdicts:
-        assert v["claim"] in report and v["verdict"] in ("reproduced", "refuted",
-                                                         "not decidable")
-    assert "(local/fig1.png)" in report
+        assert v["claim"] in report and v["verdict"] == "smoke test (quick run)"
+        assert v["quick_outcome"] in ("reproduced", "refuted", "not decidable")
+    assert "(fig1.png)" in report and "**reproduced**" not in report
     tasks = fig1.tasks(quick=True)
     done = run_tasks(tasks, local, progress=False)        # everything is skipped now
     # physics of the quick sweep: z falls with mu, frictionless packings are isostatic
@@ -111,8 +113,8 @@ def test_fig3_quick_distances_boundary_and_uniformity(tmp_path, capsys):
         assert r["on_boundary_fraction_hit_and_run"] <= 0.25
         # two uniform runs agree on eta far better than the walk and hit-and-run
         assert abs(np.log(r["eta_null"] / r["eta_hit_and_run"])) < 0.35
-    report = (tmp_path / "REPORT.md").read_text()
-    assert "(fig3/fig3.png)" in report and "uniformly" in report
+    report = (out / "REPORT.md").read_text()
+    assert "(fig3.png)" in report and "uniformly" in report
     # one task through a Dask cluster on loopback gives the same numbers
     distributed = pytest.importorskip("distributed")
     from forcespace_studies import fig3
@@ -131,16 +133,21 @@ def test_fig3_quick_distances_boundary_and_uniformity(tmp_path, capsys):
 
 
 def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
-    from forcespace_studies.report import Verdict, write_section
+    from forcespace_studies.report import Verdict, write_report, write_section
     with pytest.raises(ValueError, match="verdict"):
         Verdict("x", "claim", "ours", "probably")
     for name in ("fig3", "fig1"):
         (tmp_path / name).mkdir()
         write_section(tmp_path / name, name, f"Title {name}", "text",
                       [Verdict(name, f"claim {name}", "42", "refuted")], {"n": 1}, ["a.png"])
+        assert f"| . | claim {name} | 42 | **refuted** |" in (
+            tmp_path / name / "REPORT.md").read_text()
+    assert not (tmp_path / "REPORT.md").exists()
+    write_report([tmp_path / "fig3", tmp_path / "fig1"], tmp_path / "REPORT.md")
     report = (tmp_path / "REPORT.md").read_text()
     assert report.index("Title fig1") < report.index("Title fig3")
     assert "| fig1 | claim fig1 | 42 | **refuted** |" in report
+    assert "(fig1/a.png)" in report
 
 
 @pytest.mark.slow
@@ -162,7 +169,7 @@ def test_fig2_quick_clusters_per_packing(tmp_path, capsys):
     # localisation: the largest domain is smaller at mu = 1 than at mu = 0.01
     big = {r["mu"]: r["largest_domain_fraction"] for r in rows if r["seed"] == 1}
     assert big[1.0] < big[0.01]
-    assert "Fig. 2" in (tmp_path / "REPORT.md").read_text()
+    assert "Fig. 2" in (out / "REPORT.md").read_text()
 
 
 @pytest.mark.slow
@@ -178,9 +185,9 @@ def test_pointforce_quick_and_report_only(tmp_path, capsys):
             assert r["push_displaced"] >= 1 and r["push_max_displacement"] > 0.1
     assert summary["pushed"] >= 2
     # summarising again without running anything gives the same report
-    before = (tmp_path / "REPORT.md").read_text()
+    before = (out / "REPORT.md").read_text()
     assert main(["study", "pointforce", "--quick", "-o", str(out), "--report-only"]) == 0
-    assert (tmp_path / "REPORT.md").read_text() == before
+    assert (out / "REPORT.md").read_text() == before
 
 
 def test_max_point_force_is_where_rigid_disks_start_to_move():
@@ -216,7 +223,7 @@ def test_size_quick_scaled_boxes_and_indeterminacy_bookkeeping(tmp_path, capsys)
     assert (out / "size.csv").is_file() and (out / "size_by_n.csv").is_file()
     (verdict,) = json.loads((out / "verdicts.json").read_text())["verdicts"]
     assert verdict["claim"].startswith("hypothesis: eta grows with n")
-    assert verdict["claim"] in (tmp_path / "REPORT.md").read_text()
+    assert verdict["claim"] in (out / "REPORT.md").read_text()
     before = {f.name: f.read_text() for f in (out / "tasks").glob("*.json")}
     done = run_tasks(size.tasks(quick=True), out, progress=False)   # resumes: nothing to run
     assert {f.name: f.read_text() for f in (out / "tasks").glob("*.json")} == before

@@ -12,6 +12,9 @@ imports them. Every command returns an exit code, one line on stderr and no trac
 * 3 (``EXIT_NOT_CONVERGED``): a numerical method did not converge or produced a
   non-finite value (:class:`~forcespace.errors.NumericalError`): the line says
   what was reached and why it stopped;
+* 4 (``EXIT_CLUSTER``): the workers of a study are unusable
+  (:class:`~forcespace.errors.ClusterError`: a Dask scheduler that cannot be reached or
+  is not one, every worker gone, a local worker process that died); rerun to resume;
 * 130: interrupted (Ctrl-C).
 """
 from __future__ import annotations
@@ -23,11 +26,12 @@ import sys
 from importlib.metadata import entry_points
 
 from .. import __version__
-from ..errors import ForcespaceError, NumericalError
+from ..errors import ClusterError, ForcespaceError, NumericalError
 from ..io.jsonfile import dumps
 
 EXIT_INPUT = 2
 EXIT_NOT_CONVERGED = 3
+EXIT_CLUSTER = 4
 
 BUILTIN = ("forcespace.cli.packing", "forcespace.cli.space", "forcespace.cli.scene", "forcespace.cli.viewers")
 
@@ -78,6 +82,9 @@ def main(argv=None) -> int:
     except NumericalError as exc:
         print(f"forcespace {args.command}: not converged: {exc}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
+    except ClusterError as exc:
+        print(f"forcespace {args.command}: cluster: {exc}", file=sys.stderr)
+        return EXIT_CLUSTER
     except ForcespaceError as exc:
         print(f"forcespace {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_INPUT

@@ -83,12 +83,14 @@ def cmd_info(args) -> int:
 
 
 def cmd_draw(args) -> int:
-    from ..plot import draw_packing, figure_targets
-    from ..io.outputs import check_output_file
+    from ..plot import draw_packing
+    from ..io.outputs import check_figure_file
     from ..io.packing_file import read_packing
+    from .space import check_problem_args, check_seed
 
-    for target in figure_targets(args.output):
-        check_output_file(target, inputs=[args.packing])
+    check_seed(args.seed)
+    check_problem_args(args.mu, args.gap_tol, args.slice)
+    check_figure_file(args.output, inputs=[args.packing])
     if not args.difference:
         draw_packing(read_packing(args.packing), args.output)
         print(f"wrote {args.output}")

@@ -6,12 +6,44 @@ import time
 
 
 
+MU_MAX = 1e6          # as the scene's physics.mu
+SEED_MAX = 2 ** 63 - 1    # numpy takes any integer >= 0; files store int64
+
+
+def check_problem_args(mu=None, gap_tol=float("inf"), slice_height=None) -> None:
+    """The options that shape the problem, refused before any file is read."""
+    import math
+
+    from ..errors import InputError
+    if mu is not None and not (0 <= mu <= MU_MAX):
+        raise InputError("command line", "--mu", f"must be a number in [0, {MU_MAX:g}] "
+                         "(a Coulomb coefficient, as the scene's physics.mu)", got=mu)
+    if math.isnan(gap_tol) or gap_tol < 0:
+        raise InputError("command line", "--gap-tol", "must be a number >= 0 [R] (or inf: "
+                         "keep every contact)", got=gap_tol)
+    if slice_height is not None and not (math.isfinite(slice_height) and slice_height > 0):
+        raise InputError("command line", "--slice", "must be a finite number > 0 [R]",
+                         got=slice_height)
+
+
+def check_seed(seed, option: str = "--seed") -> int:
+    """A seed as numpy takes it (and files store it): an integer in [0, 2**63 - 1]."""
+    from ..errors import InputError
+    if seed is None:
+        return seed
+    if not 0 <= seed <= SEED_MAX:
+        raise InputError("command line", option, f"must be an integer in [0, {SEED_MAX}]",
+                         got=seed)
+    return seed
+
+
 def load_problem(path, slice_height=None, full=False, gap_tol=float("inf"), mu=None):
     """Read a packing file and build the problem the options ask for
     (:func:`forcespace.statics.problem_for`)."""
     from ..io.packing_file import read_packing
     from ..model.problem import problem_for
 
+    check_problem_args(mu, gap_tol, slice_height)
     packing = read_packing(path)
     return packing, problem_for(packing, slice_height, full, gap_tol, mu, source=str(path))
 
@@ -73,6 +105,8 @@ def cmd_sample(args) -> int:
     from ..errors import NumericalError
     from ..io.outputs import check_output_file
 
+    check_seed(args.seed)
+    check_problem_args(args.mu, args.gap_tol, args.slice)
     check_output_file(args.output, inputs=[args.packing])
     packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
     common = dict(seed=args.seed, progress=not args.quiet,
@@ -112,12 +146,12 @@ def cmd_ensemble(args) -> int:
 
 def cmd_section(args) -> int:
     from ..cli import print_result
-    from ..plot import figure_targets
-    from ..io.outputs import check_output_file
+    from ..io.outputs import check_figure_file
     from ..space.section import Section
 
-    for target in figure_targets(args.output):
-        check_output_file(target, inputs=[args.packing])
+    check_seed(args.seed)
+    check_problem_args(args.mu, args.gap_tol, args.slice)
+    check_figure_file(args.output, inputs=[args.packing])
     _, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
     sec = Section(n=args.n, seed=args.seed).compute(problem)
     ax = sec.plot(title=f"S through the jammed network ({problem.kind}, seed {args.seed})")
@@ -140,9 +174,15 @@ def cmd_select(args) -> int:
     from ..space.selection import Selection
     from ..model.problem import plate_problem, problem_for
 
-    for name, v in (("--kt-ratio", args.kt_ratio), ("--kn", args.kn)):
-        if not (math.isfinite(v) and v > 0):
-            raise InputError("command line", name, "must be a finite number > 0", got=v)
+    # beyond these ranges the QP's scaling fails (kn 1e15 with --initial-overlaps, kt/kn
+    # 1e-12) or overflows (kn 1e308), where the physics has nothing to gain
+    for name, v, lo, hi, what in (
+            ("--kt-ratio", args.kt_ratio, 1e-6, 1e6, "kt/kn; elastic disks have 0.1 to 1"),
+            ("--kn", args.kn, 1e-12, 1e12, "[F0/R]; soft codes use 1e3 to 1e8")):
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise InputError("command line", name, f"must be a number > 0, in [{lo:g}, {hi:g}] "
+                             f"({what})", got=v)
+    check_problem_args(args.mu, args.gap_tol, args.slice)
     check_output_file(args.output, inputs=[args.packing])
     t0 = time.perf_counter()
     packing = read_packing(args.packing)

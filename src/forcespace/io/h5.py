@@ -174,7 +174,17 @@ def open_h5(path, kind: str | None = None):
         f = h5py.File(source, "r")
     except OSError as exc:
         raise InputError(p, "(file)", f"is not a readable HDF5 file ({exc})") from None
-    version = int(f.attrs.get("format_version", 1))
+    raw = f.attrs.get("format_version", 1)
+    try:
+        version = int(raw)
+        if version != raw or version < 1:
+            raise ValueError
+    except (TypeError, ValueError):
+        f.close()
+        raise InputError(p, "format_version", f"must be an integer 1..{FORMAT_VERSION} (the "
+                         "file layout's version); the file was changed or not written by "
+                         "forcespace", got=raw.decode() if isinstance(raw, bytes) else
+                         (raw.item() if hasattr(raw, "item") else raw)) from None
     if version > FORMAT_VERSION:
         f.close()
         raise InputError(p, "format_version", f"was written by a newer forcespace (file format "

@@ -2,20 +2,23 @@
 
 Every command that writes checks its outputs first (:func:`check_output_file`,
 :func:`check_output_dir`), so a bad path fails in a second, not after an hour
-of simulation. Writers hold :func:`output_lock` (a non-blocking ``flock`` on a
-hidden ``.NAME.lock`` beside the target): a second process writing the same
+of simulation. Writers hold :func:`output_lock` (a non-blocking lock, :func:`file_lock`,
+on a hidden ``.NAME.lock`` beside the target): a second process writing the same
 file is refused with a clear error instead of interleaving. Under the lock,
 temporary files of earlier runs that were killed (``.NAME.*.tmp``, the pattern
 of :func:`forcespace.h5io.atomic_path`) are removed. Run directories that
 forcespace creates carry a marker file; a directory without it is never
 replaced or deleted.
+
+Locks are `filelock <https://py-filelock.readthedocs.io>`_ locks (``flock`` on POSIX,
+``msvcrt`` on Windows); the lock file is removed when the lock is released, so a
+finished run leaves none behind.
 """
 from __future__ import annotations
 
 import contextlib
-import errno
-import fcntl
 import os
+import secrets
 import stat
 from pathlib import Path
 
@@ -34,6 +37,21 @@ def _parent_writable(p: Path, field: str) -> None:
         raise InputError(p, field, f"{parent} is not a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise InputError(p, field, f"its directory {parent} is not writable")
+    probe_writable(parent, p, field)
+
+
+def probe_writable(directory, source=None, field: str = "-o/--output") -> None:
+    """InputError unless a file can really be created in ``directory`` (``os.access``
+    says yes to root on a read-only directory and knows nothing of read-only mounts)."""
+    d = Path(directory)
+    probe = d / f".forcespace-probe-{secrets.token_hex(4)}.tmp"
+    try:
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+    except OSError as exc:
+        raise InputError(source if source is not None else d, field,
+                         f"its directory {d} is not writable ({exc.strerror})") from None
+    with contextlib.suppress(OSError):
+        os.unlink(probe)
 
 
 def check_output_file(path, inputs=(), field: str = "-o/--output") -> Path:
@@ -61,6 +79,24 @@ def check_output_file(path, inputs=(), field: str = "-o/--output") -> Path:
                              "regular files")
     _parent_writable(p, field)
     return p
+
+
+def check_figure_file(path, inputs=(), field: str = "-o/--output") -> list[Path]:
+    """Refuse a figure path before any work: its format must be one matplotlib writes
+    (by the suffix; none means PNG), and each file it produces (a PNG also writes a PDF
+    twin) must pass :func:`check_output_file`. Returns those files."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    from ..plot import figure_targets
+
+    p = Path(path)
+    formats = FigureCanvasBase.get_supported_filetypes()
+    suffix = p.suffix.lstrip(".").lower()
+    if suffix and suffix not in formats:        # no suffix: written as PNG
+        raise InputError(p, field, "must name a figure file: .png (also writes a .pdf), "
+                         f"or one of {', '.join('.' + f for f in sorted(formats))}",
+                         got=p.suffix or "(no suffix)")
+    return [check_output_file(t, inputs=inputs, field=field) for t in figure_targets(p)]
 
 
 def check_output_dir(path, field: str = "-o/--output") -> Path:
@@ -93,22 +129,49 @@ def clean_stale_temps(path) -> list[Path]:
 
 
 @contextlib.contextmanager
+def file_lock(lock_path, blocking: bool = True, timeout: float = -1, busy=None):
+    """Hold an exclusive lock on the file ``lock_path`` (created if needed, removed when
+    released). ``blocking=False``: raise ``busy`` (an exception) at once if another
+    process holds it; ``timeout`` [s]: wait at most that long, then raise ``busy``.
+
+    The lock file is unlinked while the lock is still held, as the last step: a process
+    waiting on the old file sees it unlinked once it gets the lock (filelock checks
+    ``st_nlink``) and starts over on the new file, so the removal never lets two
+    processes hold the lock at once.
+    """
+    from filelock import FileLock, Timeout
+
+    lock_path = Path(lock_path)
+    lock = FileLock(lock_path, timeout=timeout, blocking=blocking, thread_local=False)
+    try:
+        lock.acquire()
+    except Timeout:
+        if busy is None:
+            raise
+        raise busy from None
+    try:
+        yield lock_path
+    finally:
+        if os.name != "nt":        # on Windows filelock removes it itself after release
+            with contextlib.suppress(OSError):
+                os.unlink(lock_path)
+        lock.release()
+
+
+def lock_path_of(path) -> Path:
+    """The hidden lock file of ``path``: ``.NAME.lock`` beside it."""
+    p = Path(path)
+    return p.parent / f".{p.name}.lock"
+
+
+@contextlib.contextmanager
 def output_lock(path):
     """Hold an exclusive, non-blocking lock on ``path`` for writing; stale temp files
     of ``path`` are removed once it is held. InputError if another process holds it."""
     p = Path(path)
     _parent_writable(p, "-o/--output")
-    lock = p.parent / f".{p.name}.lock"
-    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as exc:
-            if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
-                raise InputError(p, "(lock)", "is being written by another forcespace process; "
-                                 "wait for it or choose another output") from None
-            raise
+    busy = InputError(p, "(lock)", "is being written by another forcespace process; "
+                      "wait for it or choose another output")
+    with file_lock(lock_path_of(p), blocking=False, busy=busy):
         clean_stale_temps(p)
         yield p
-    finally:
-        os.close(fd)          # releases the lock

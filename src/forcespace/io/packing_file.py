@@ -29,7 +29,7 @@ from ..errors import InputError
 from ..model.scene import SCHEMA_VERSION
 from .h5 import atomic_h5, open_h5, write_dataset
 from ..model.walls import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES
-from ..model.packing import Packing, check_packing
+from ..model.packing import Packing, check_force_signs, check_packing
 
 UNITS = ("lengths in R (smallest radius of the scene's range); masses in rho*R^2 "
          "(disk mass = density*pi*r^2); forces in F0 (the scene's force unit)")
@@ -125,11 +125,12 @@ def read_packing(path, kind: str = "packing") -> Packing:
                 fn=forces.reshape(-1, 2)[:, 0].copy(), ft=forces.reshape(-1, 2)[:, 1].copy(),
                 seed=int(f.attrs["seed"]), scene_text=str(f.attrs["scene_text"]),
                 scene_name=str(f.attrs["scene_name"]), meta=meta,
-                solver_log=f["solver_log"][()] if "solver_log" in f else None)
+                solver_log=f["solver_log"][()] if "solver_log" in f else None,
+                source=str(path))
         except KeyError as exc:
             raise InputError(path, str(exc.args[0]) if exc.args else "?",
                              "missing from the file; not a complete forcespace packing") from None
         except (ValueError, TypeError, IndexError) as exc:
             raise InputError(path, "(layout)", f"unreadable as a forcespace packing ({exc})") \
                 from None
-    return check_packing(p, path)
+    return check_force_signs(check_packing(p, path), path)

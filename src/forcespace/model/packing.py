@@ -61,6 +61,9 @@ class Packing:
     scene_name: str = ""
     meta: dict = field(default_factory=dict)
     solver_log: np.ndarray | None = None  # (k, 5): step, max |v|, |v_top|, sweeps/step, rel. change
+    # the file it was read from ("" if built in memory): problems built from it name it as
+    # their source, so ensembles record the packing file they sample
+    source: str = field(default="", compare=False, repr=False)
 
     # ---- construction, files, figures ----------------------------------------
     @classmethod
@@ -245,7 +248,8 @@ class Packing:
 
     def with_forces(self, fn, ft) -> "Packing":
         """A copy carrying another force state on the same contact network."""
-        return replace(self, fn=np.asarray(fn, float).copy(), ft=np.asarray(ft, float).copy())
+        return replace(self, fn=np.asarray(fn, float).copy(), ft=np.asarray(ft, float).copy(),
+                       source="")
 
     def summary(self) -> dict:
         """The numbers `forcespace info --json` prints."""
@@ -300,6 +304,25 @@ def contact_sums(p: Packing, fn, ft, contacts=None, external: bool = False):
     np.add.at(force, body[disk], push[disk])
     np.add.at(torque, body[disk], -p.r[body[disk]] * turn[disk])
     return force, torque
+
+
+FN_ROUND_OFF = 1e-6    # fn below -FN_ROUND_OFF * mean |fn| is tension, not round-off
+
+
+def check_force_signs(p: Packing, source="packing") -> Packing:
+    """InputError unless every normal force is >= 0 up to round-off (FN_ROUND_OFF of the
+    mean |fn|): contacts push. Checked on every read of a packing file (a file whose
+    forces were negated, or edited, is refused); a packing built in memory may carry
+    any trial forces."""
+    fn = np.asarray(p.fn, float)
+    if fn.size:
+        floor = -FN_ROUND_OFF * float(np.abs(fn).mean())
+        if fn.min() < floor:
+            k = int(np.argmin(fn))
+            raise InputError(source, f"forces[{k}, 0]", "normal forces must be >= 0 (contacts "
+                             f"push: fn > 0 is compressive); {int((fn < floor).sum())} of "
+                             f"{fn.size} are negative", got=float(fn[k]))
+    return p
 
 
 def check_packing(p: Packing, source="packing") -> Packing:
@@ -380,4 +403,5 @@ def tile(p: Packing, k: int) -> Packing:
     density = p.density if np.ndim(p.density) == 0 else np.tile(p.density, k)
     return replace(p, x=x, y=np.tile(p.y, k), r=np.tile(p.r, k), width=k * p.width,
                    top_force=k * p.top_force, density=density, a=np.concatenate(a_blocks),
-                   b=np.concatenate(b_blocks), image=np.concatenate(img_blocks), **fields)
+                   b=np.concatenate(b_blocks), image=np.concatenate(img_blocks), source="",
+                   **fields)

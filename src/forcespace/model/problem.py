@@ -340,8 +340,13 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     packing's own (the paper's frictionless packing "with friction switched
     on"); wall contacts keep ``plate_mu``. Recorded as ``meta["mu_override"]``.
     """
-    if mu is not None and not (np.isfinite(mu) and mu >= 0):
-        raise InputError(source or "problem", "mu", "must be a finite number >= 0", got=mu)
+    source = source or getattr(p, "source", "")
+    if mu is not None and not (np.isfinite(mu) and 0 <= mu <= 1e6):
+        raise InputError(source or "problem", "mu", "must be a number in [0, 1e6] (as the "
+                         "scene's physics.mu)", got=mu)
+    if np.isnan(gap_tol) or gap_tol < 0:
+        raise InputError(source or "problem", "gap_tol", "must be a number >= 0 [R] (or inf)",
+                         got=gap_tol)
     mu_override = None if mu is None else float(mu)
     check_packing(p, source or "packing")
     rat = p.rattlers() if rattlers is None else np.asarray(rattlers, bool)

@@ -1,0 +1,50 @@
+"""Options out of range are one line naming the option, before any work (issue 21)."""
+import pytest
+
+from forcespace.cli import main
+from paths import DATA
+
+PACK = DATA / "paper_mu1_seed2.h5"
+
+
+@pytest.fixture
+def no_work(monkeypatch):
+    import forcespace.io.packing_file as pf
+    monkeypatch.setattr(pf, "read_packing", lambda *a, **k: pytest.fail("read before checks"))
+
+
+@pytest.mark.parametrize("argv, option, words", [
+    (["draw", "--difference", "--seed", "-1", "-o", "d.png"], "--seed", "integer in [0,"),
+    (["section", "--seed", "-1", "-o", "s.png"], "--seed", "integer in [0,"),
+    (["sample", "--sampler", "hit-and-run", "-n", "2", "--seed", "-1", "-o", "e.h5"],
+     "--seed", "integer in [0,"),
+    (["sample", "--sampler", "relax", "-n", "2", "--seed", "-1", "-o", "e.h5"],
+     "--seed", "integer in [0,"),
+    (["select", "--kn", "1e308", "-o", "s.h5"], "--kn", "[1e-12, 1e+12]"),
+    (["select", "--kt-ratio", "1e-300", "-o", "s.h5"], "--kt-ratio", "[1e-06, 1e+06]"),
+    (["analyze", "--mu", "1e300"], "--mu", "[0, 1e+06]"),
+    (["analyze", "--gap-tol", "nan"], "--gap-tol", ">= 0"),
+    (["analyze", "--gap-tol", "-1"], "--gap-tol", ">= 0"),
+    (["sample", "--sampler", "relax", "-n", "2", "--gap-tol", "nan", "-o", "e.h5"],
+     "--gap-tol", ">= 0"),
+    (["select", "--mu", "1e300", "-o", "s.h5"], "--mu", "[0, 1e+06]"),
+    (["draw", "--difference", "--mu", "-1", "-o", "d.png"], "--mu", "[0, 1e+06]"),
+])
+def test_bad_options_are_one_line_naming_the_option(tmp_path, capsys, no_work, argv, option,
+                                                    words):
+    assert main([argv[0], str(PACK), *argv[1:]]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "Traceback" not in err[0]
+    assert f"command line: {option} = " in err[0] and words in err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_library_refuses_them_too():
+    from forcespace.errors import InputError
+    from forcespace.io.packing_file import read_packing
+    from forcespace.model.problem import slice_problem
+    p = read_packing(PACK)
+    for kw, field in (({"mu": 1e300}, "mu"), ({"gap_tol": float("nan")}, "gap_tol"),
+                      ({"gap_tol": -1.0}, "gap_tol")):
+        with pytest.raises(InputError, match=f"{PACK}: {field} = "):
+            slice_problem(p, 28.0, **kw)

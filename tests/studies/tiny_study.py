@@ -1,0 +1,64 @@
+"""A tiny study for the runner's tests: hit-and-run on hand-built grooves (no jamming).
+
+Each task logs that it ran (one line appended to ``OUT/runs.log``), records the BLAS
+threads it saw, sleeps ``TINY_STUDY_SLEEP`` seconds (so a test can interrupt a run),
+fails on purpose if it is ``TINY_STUDY_FAIL`` (until ``OUT/heal`` exists), and samples S into
+``workdir/har.h5``. Registered by the tests as study ``tiny`` (``STUDIES["tiny"]``).
+"""
+import json
+import os
+import time
+from pathlib import Path
+
+from forcespace.sweep import Task
+
+FULL = dict(thetas=(0.3, 0.5, 0.7, 0.4, 0.6, 0.2), samples=12)
+QUICK = dict(thetas=(0.3, 0.5), samples=6)
+
+
+def config(quick: bool) -> dict:
+    cfg = dict(QUICK if quick else FULL)
+    cfg["fail"] = os.environ.get("TINY_STUDY_FAIL", "")
+    return cfg
+
+
+def tasks(quick: bool = False) -> list:
+    cfg = config(quick)
+    return [Task(f"t{i}", "tiny_study:task",
+                 dict(theta=th, mu=0.2, samples=cfg["samples"], seed=i,
+                      fail=cfg["fail"] == f"t{i}"))
+            for i, th in enumerate(cfg["thetas"])]
+
+
+def task(theta, mu, samples, seed, fail, workdir) -> dict:
+    import forcespace as fs
+    from ensemble_cases import grooves
+    from forcespace.errors import NumericalError
+    from threadpoolctl import threadpool_info
+
+    wd = Path(workdir)
+    with open(wd.parents[1] / "runs.log", "a") as fh:
+        fh.write(f"{wd.name} {os.getpid()}\n")
+    if fail and not (wd.parents[1] / "heal").exists():
+        raise NumericalError(f"task {wd.name} failed on purpose")
+    time.sleep(float(os.environ.get("TINY_STUDY_SLEEP", 0)))   # not a parameter: no result
+    _, prob = grooves([theta, theta + 0.1], mu=mu)
+    har = fs.HitAndRun(n=samples, seed=seed).compute(prob, output=wd / "har.h5")
+    threads = max((i["num_threads"] for i in threadpool_info()
+                   if i["user_api"] == "blas"), default=1)
+    return {"rows": [{"theta": theta, "seed": seed, "eta": har.ensemble.eta,
+                      "n": har.ensemble.n_samples, "dim_S": har.summary().get("dim_S")}],
+            "blas_threads": threads}
+
+
+def summarize(results, out) -> dict:
+    from forcespace_studies.report import Verdict, write_csv, write_section
+
+    out = Path(out)
+    rows = [dict(row, task=r["task"]) for r in results if r["ok"] for row in r["rows"]]
+    write_csv(out / "tiny.csv", rows, ["task", "theta", "seed", "eta", "n", "dim_S"])
+    write_section(out, "tiny", "A tiny study", json.dumps({"rows": len(rows)}),
+                  [Verdict("tiny", "grooves are indeterminate with friction",
+                           f"{len(rows)} grooves", "reproduced")], {"rows": len(rows)}, [])
+    return {"tasks": len(results), "failed": sum(not r["ok"] for r in results),
+            "rows": len(rows), "verdicts": ["reproduced"]}
