@@ -39,9 +39,9 @@ def test_pip_install_then_pack_study_and_readme_example(tmp_path):
     assert (work / "q.h5").stat().st_size > 10_000
     _run([bin_ / "forcespace", "study", "fig1", "--quick", "-o", "f1", "--quiet"], work,
          env=env)
-    for name in ("fig1.csv", "fig1.png", "verdicts.json"):
+    for name in ("fig1.csv", "fig1.png", "verdicts.json", "REPORT.md"):
         assert (work / "f1" / name).is_file(), name
-    assert not (tmp_path / "REPORT.md").exists()           # nothing outside -o
+    assert sorted(q.name for q in work.iterdir()) == ["f1", "q.h5"]   # nothing outside -o
     text = (ROOT / "README.md").read_text()
     code = re.search(r"## Python API\s+```python\n(.*?)```", text, re.S).group(1)
     out = _run([bin_ / "python", "-c", code], work, env=env).stdout

@@ -81,7 +81,9 @@ def _study_dir(args) -> "Path":
                              "nothing to summarise (run the study first)")
     else:
         d = Path(out).absolute()
-        if d.is_dir() and any(d.iterdir()) and not (
+        # forcespace's own hidden files (the study lock, a writability probe) do not make a
+        # directory foreign: a study starting there at the same moment holds the lock
+        if d.is_dir() and any(not e.name.startswith(".") for e in d.iterdir()) and not (
                 (d / STUDY_FILE).is_file() or (d / "tasks").is_dir()
                 or (d / "verdicts.json").is_file()):
             raise InputError(d, "-o/--output", "is a non-empty directory that is not a study "
