@@ -61,6 +61,10 @@ ROUNDING_ROW_TOL = 1e-10    # [1] rows of the slack-scaled {A x <= 1} below this
 ROUNDING_CENTRED = 1e-3     # [1] Newton decrement at which the John rounding's centre is found
 MVE_MAX_ROWS = 1500         # [rows] above: John (Lewis-weight) rounding, not the exact MVE
 RELAX_STALL_SWEEPS = 20_000  # [sweeps] relax walk: no 1 % progress in this many is a stall
+RHAT_MAX = 1.05             # [1] chains whose split R-hat (rank-normalised, folded) exceeds
+                            # this on any tracked statistic have not mixed
+MIN_ESS = 100.0             # [samples] effective sample size a converged run reaches on every
+                            # tracked statistic (bulk and tail)
 
 # ---- point force ----------------------------------------------------------------------------
 DISPLACED = 0.1             # [R] a disk moved by more than this took part in a rearrangement

@@ -164,3 +164,29 @@ def test_burn_in_in_chunks_is_the_same_walk(monkeypatch):
         monkeypatch.setattr(har, "BURN_IN_CHUNK", chunk)
         runs.append(HitAndRun(4, seed=5, burn_in=1000).compute(prob).ensemble.samples)
     assert np.array_equal(runs[0], runs[2]) and np.array_equal(runs[1], runs[2])
+
+
+def test_a_run_asked_for_a_target_ess_stops_there_or_says_it_fell_short():
+    """Two grooves (dim 2): hit-and-run stops as soon as every tracked statistic has bulk
+    and tail ESS >= 100 and R-hat <= 1.05, well before its cap; asked for an ESS its cap
+    cannot reach, it stops at the cap with status 1 and says so."""
+    _, prob = grooves(THETAS, MU)
+    har = HitAndRun(4000, seed=3, target_ess=100).compute(prob)
+    d = har.ensemble.diagnostics
+    assert har.success and "converged" in har.message
+    assert d["min_ess"] >= 100 and d["max_rhat"] <= config.RHAT_MAX
+    assert har.ensemble.n_samples < 4000
+    short = HitAndRun(40, seed=3, target_ess=1e6).compute(prob)
+    assert short.status == 1 and "short of the target ESS" in short.message
+    assert short.ensemble.n_samples == 40
+
+
+def test_relax_walk_in_chains_gives_r_hat_and_one_chain_is_the_walk_of_before():
+    _, prob = grooves(THETAS, MU)
+    four = RelaxWalk(40, seed=2, chains=4).compute(prob).ensemble
+    assert sorted(set(four.chains.tolist())) == [0, 1, 2, 3]
+    assert np.isfinite(four.diagnostics["max_rhat"]) and four.diagnostics["n_chains"] == 4
+    one = RelaxWalk(10, seed=2).compute(prob).ensemble
+    again = RelaxWalk(10, seed=2, chains=1).compute(prob).ensemble
+    assert np.array_equal(one.samples, again.samples) and "chains" not in one.params
+    assert not np.array_equal(four.samples[:10], one.samples)   # other streams

@@ -110,10 +110,10 @@ def cmd_sample(args) -> int:
     check_output_file(args.output, inputs=[args.packing])
     packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
     common = dict(seed=args.seed, progress=not args.quiet,
-                  checkpoint_every=args.checkpoint_every)
+                  checkpoint_every=args.checkpoint_every, target_ess=args.target_ess)
     if args.sampler == "relax":
         from ..sampling.relax_walk import RelaxWalk
-        sampler = RelaxWalk(args.n, tol=args.tol, **common)
+        sampler = RelaxWalk(args.n, tol=args.tol, chains=args.chains or 1, **common)
     else:
         from ..sampling.hit_and_run import HitAndRun
         sampler = HitAndRun(args.n, chains=args.chains, thin=args.thin, burn_in=args.burn_in,
@@ -229,7 +229,11 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--tol", type=float, default=1e-9,
                    help="relax: max violation of S relative to <Fn> per sample (default 1e-9)")
-    p.add_argument("--chains", type=int, default=None, help="hit-and-run chains (default 4)")
+    p.add_argument("--chains", type=int, default=None,
+                   help="independent chains (hit-and-run default 4, relax default 1)")
+    p.add_argument("--target-ess", type=float, default=None, metavar="E",
+                   help="stop as soon as every tracked statistic has bulk and tail ESS >= E "
+                        "and split R-hat <= 1.05 (-n is then the cap; exit 3 if reached first)")
     p.add_argument("--thin", type=int, default=None,
                    help="hit-and-run steps between samples (default max(50, dim_S^2))")
     p.add_argument("--burn-in", type=int, default=None,

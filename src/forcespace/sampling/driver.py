@@ -28,7 +28,7 @@ from ..io import ensemble_file as ef
 from ..io.jsonfile import dumps
 from ..io.outputs import check_output_file, output_lock
 from ..progress import progress as progress_bar
-from .diagnostics import diagnostics
+from .diagnostics import by_chain, converged, diagnostics, summarize, tracked_statistics
 from .ensemble import Ensemble
 
 CHECKPOINT_SECONDS = 60.0
@@ -88,17 +88,71 @@ class _Sink:
         self.last = time.perf_counter()
 
 
-def run_walk(walk, problem, n: int, output=None, checkpoint_every: int = 10,
-             max_seconds: float | None = None, progress: bool = False,
-             t_start: float | None = None) -> Ensemble:
-    """Draw samples of S with ``walk`` until there are ``n`` (or ``max_seconds`` since
-    ``t_start`` have passed: status 1, every sample drawn kept). ``output``: an ensemble
-    file to write, resumed when it continues this run. Returns the whole ensemble."""
-    require_int("sample", "n", n, 1, "number of samples")
+def check_target(target_ess, source="sample") -> None:
+    """InputError unless target_ess is None or a finite number >= 4 (an ESS needs chains
+    of at least 4 draws)."""
+    if target_ess is not None and not (isinstance(target_ess, (int, float))
+                                       and not isinstance(target_ess, bool)
+                                       and np.isfinite(target_ess) and target_ess >= 4):
+        raise InputError(source, "target_ess", "must be a number >= 4 (effective samples) "
+                         "or None", got=target_ess)
+
+
+class Stop:
+    """When a run stops: ``n`` samples, or earlier at ``max_seconds`` since the start
+    (status 1), or, with ``target_ess``, as soon as every tracked statistic of the
+    samples has bulk and tail ESS >= target_ess and R-hat <= ``config.RHAT_MAX``
+    (status 0; reaching n without it is status 1). ESS is checked after every
+    ``chains`` samples once their number has grown by a quarter since the last check."""
+
+    def __init__(self, n: int, max_seconds=None, target_ess=None, chains: int = 1,
+                 seed: int = 0):
+        self.n, self.max_seconds, self.target_ess = n, max_seconds, target_ess
+        self.chains, self.seed = max(int(chains), 1), seed
+        self.next_check = 8 * self.chains
+        self.last = {}
+
+    def __call__(self, k: int, samples, t0: float):
+        """(status, message) when the run should stop after k samples, else None;
+        ``samples()`` returns (X (k, 2m), chains (k,))."""
+        if self.target_ess is not None and k % self.chains == 0 and k >= self.next_check:
+            self.next_check = self.chains * -(-int(1.25 * k) // self.chains)
+            X, chains = samples()
+            s = summarize(tracked_statistics(by_chain(X, chains), seed=self.seed))
+            self.last = {"min_ess": s["min_ess"], "max_rhat": s["max_rhat"]}
+            if converged(s, self.target_ess):
+                return 0, (f"converged: ESS >= {s['min_ess']:.0f} (target "
+                           f"{self.target_ess:g}), R-hat <= {s['max_rhat']:.3f} after {k} "
+                           "samples")
+        if self.max_seconds is not None and time.perf_counter() - t0 > self.max_seconds:
+            if k < self.n or self.target_ess is not None:
+                return 1, f"stopped after max_seconds = {self.max_seconds:g} s with {k} " \
+                          f"samples{self._short()}"
+        return None
+
+    def at_cap(self, k: int):
+        """(status, message) of a run that drew all n samples."""
+        if self.target_ess is None:
+            return 0, f"{k} samples"
+        return 1, f"reached n = {self.n} samples{self._short()}"
+
+    def _short(self) -> str:
+        if self.target_ess is None or not self.last:
+            return ""
+        return (f" short of the target ESS {self.target_ess:g} (last check: ESS "
+                f"{self.last['min_ess']:.0f}, R-hat {self.last['max_rhat']:.3f})")
+
+
+def run_walk(walk, problem, stop: Stop, output=None, checkpoint_every: int = 10,
+             progress: bool = False, t_start: float | None = None) -> Ensemble:
+    """Draw samples of S with ``walk`` until ``stop`` says so (:class:`Stop`: a sample
+    count, a time cap, a target ESS). ``output``: an ensemble file to write, resumed when
+    it continues this run. Returns the whole ensemble (stored and new samples)."""
+    require_int("sample", "n", stop.n, 1, "number of samples")
     require_int("sample", "checkpoint_every", checkpoint_every, 1)
     t0 = time.perf_counter() if t_start is None else t_start
     if output is None:
-        return _draw(walk, problem, n, None, None, checkpoint_every, max_seconds, progress, t0)
+        return _draw(walk, problem, stop, None, None, checkpoint_every, progress, t0)
     check_output_file(output)
     with output_lock(output):
         old = ef.existing(output, problem, walk.sampler, walk.params)
@@ -109,32 +163,40 @@ def run_walk(walk, problem, n: int, output=None, checkpoint_every: int = 10,
             setup, describe, checkpoint, checkpoint_attrs = walk.set_up()
             ef.create(output, problem, walk.sampler, walk.params, setup, describe, checkpoint,
                       checkpoint_attrs, walk.tolerance_description)
-        return _draw(walk, problem, n, output, old, checkpoint_every, max_seconds, progress,
-                     t0)
+        return _draw(walk, problem, stop, output, old, checkpoint_every, progress, t0)
 
 
-def _draw(walk, problem, n, output, old, every, max_seconds, progress, t0) -> Ensemble:
+def _draw(walk, problem, stop, output, old, every, progress, t0) -> Ensemble:
     if output is None:
         walk.set_up()
     have = 0 if old is None else old.ensemble.n_samples
     sink = _Sink(output, have, every, walk)
-    status, message = 0, f"{max(n, have)} samples"
-    with progress_bar(total=n, desc=walk.sampler, unit="sample", disable=not progress) as bar:
-        bar.update(min(have, n))
+
+    def samples():
+        X = np.array([d[0] for d in sink.drawn], float).reshape(len(sink.drawn), -1)
+        c = np.array([d[1] for d in sink.drawn], np.int64)
+        if old is not None:
+            X = np.vstack([old.ensemble.samples, X]) if len(X) else old.ensemble.samples
+            c = np.concatenate([old.ensemble.chains, c])
+        return X, c
+
+    outcome = None if have < stop.n else stop.at_cap(have)
+    with progress_bar(total=stop.n, desc=walk.sampler, unit="sample",
+                      disable=not progress) as bar:
+        bar.update(min(have, stop.n))
         try:
-            for i in range(have, n):
+            for i in range(have, stop.n):
                 sink.add(*walk.draw(i))
                 bar.update(1)
                 if hasattr(walk, "postfix"):
                     bar.set_postfix(walk.postfix(), refresh=False)
-                if max_seconds is not None and time.perf_counter() - t0 > max_seconds:
-                    if i + 1 < n:
-                        status, message = 1, (f"stopped after max_seconds = {max_seconds:g} s "
-                                              f"with {i + 1} of {n} samples")
+                outcome = stop(i + 1, samples, t0)
+                if outcome is not None:
                     break
         except BaseException:
             sink.flush()       # finished samples are never lost
             raise
+    status, message = outcome if outcome is not None else stop.at_cap(stop.n)
     ens = _ensemble(walk, problem, old, sink, status, message, output)
     if sink.buffer or sink.drawn:
         sink.flush(dumps(ens.diagnostics))
@@ -156,6 +218,5 @@ def _ensemble(walk, problem, old, sink, status, message, output) -> Ensemble:
                    x_jammed=problem.x_jammed, force_scale=problem.force_scale,
                    params=dict(walk.params), attrs=ef.provenance(problem), status=status,
                    message=message, path=None if output is None else str(output))
-    if walk.sampler == "hit-and-run":
-        ens.diagnostics = diagnostics(ens.samples, ens.chains, walk.params.get("seed", 0))
+    ens.diagnostics = diagnostics(ens.samples, ens.chains, walk.params.get("seed", 0))
     return ens

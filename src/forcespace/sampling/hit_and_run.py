@@ -47,7 +47,7 @@ from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
 from ..result import Computed
 from ..space.force_space import ForceSpace
-from .driver import run_walk
+from .driver import Stop, check_target, run_walk
 from .ensemble import Ensemble
 from .rounding import mve_rounding
 
@@ -394,7 +394,9 @@ class HitAndRun(Computed):
     Parameters: ``chains`` (default 4), ``thin`` steps between samples (default
     max(50, d^2)), ``burn_in`` steps per chain (default max(500, 10 d^2)),
     ``direction`` "coordinate" (default) or "hypersphere"; ``max_seconds`` stops early
-    (status 1, every sample drawn kept); ``progress`` shows bars on stderr.
+    (status 1, every sample drawn kept); ``target_ess``: stop as soon as every tracked
+    statistic has bulk and tail ESS >= target_ess and split R-hat <= 1.05 (``n`` is then
+    the cap; reaching it first is status 1); ``progress`` shows bars on stderr.
     Results: ``ensemble`` (:class:`~forcespace.sampling.ensemble.Ensemble`, with the
     convergence diagnostics), and the run's ``dim``, ``n_rows``, ``times``,
     ``frame_equality_floor``.
@@ -403,10 +405,13 @@ class HitAndRun(Computed):
     def __init__(self, n: int = 100, seed: int = 0, chains: int | None = None,
                  thin: int | None = None, burn_in: int | None = None,
                  direction: str | None = None, max_seconds: float | None = None,
-                 checkpoint_every: int = 10, progress: bool = False):
+                 checkpoint_every: int = 10, progress: bool = False,
+                 target_ess: float | None = None):
         check_options(n, chains, thin, burn_in, direction, checkpoint_every)
+        check_target(target_ess)
         self.n, self.seed, self.progress = n, seed, progress
         self.max_seconds, self.checkpoint_every = max_seconds, checkpoint_every
+        self.target_ess = target_ess
         self.options = dict(seed=seed, chains=chains, thin=thin, burn_in=burn_in,
                             direction=direction)
 
@@ -414,8 +419,10 @@ class HitAndRun(Computed):
         """Sample S of ``problem``; ``analysis``: its ForceSpace, if already computed."""
         t0 = time.perf_counter()
         walk = _Walk(problem, self.options, analysis, self.progress)
-        ens = run_walk(walk, problem, self.n, output, self.checkpoint_every, self.max_seconds,
-                       self.progress, t_start=t0)
+        stop = Stop(self.n, self.max_seconds, self.target_ess, walk.params["chains"],
+                    walk.params["seed"])
+        ens = run_walk(walk, problem, stop, output, self.checkpoint_every, self.progress,
+                       t_start=t0)
         self._start()
         wall = time.perf_counter() - t0
         times = dict(walk.times, wall_time_s=wall,

@@ -47,7 +47,7 @@ from ..model.problem import StaticsProblem
 from ..result import Computed
 from ..space.force_space import check_bounded, check_feasible
 from ..space.projection import distance_to_S, l1_nearest
-from .driver import run_walk
+from .driver import Stop, check_target, run_walk
 from .ensemble import Ensemble
 
 
@@ -118,30 +118,42 @@ def check_options(n, tol, checkpoint_every=1, source="sample"):
 
 
 class _Walk:
-    """The relax walk as a walk of :func:`forcespace.sampling.driver.run_walk`."""
+    """The relax walk as a walk of :func:`forcespace.sampling.driver.run_walk`.
+
+    ``chains`` independent walks from the same relaxed start, sample i drawn by chain
+    i % chains; chain c kicks with its own stream (one chain: numpy's generator seeded
+    by ``seed``, as the walk always did; more: ``SeedSequence(seed).spawn(chains)``)."""
 
     sampler = "relax"
 
     def __init__(self, problem: StaticsProblem, seed: int, tol: float, chunk: int,
-                 max_sweeps: int, start):
+                 max_sweeps: int, start, chains: int = 1):
         self.problem, self.seed, self.tol = problem, int(seed), float(tol)
         self.chunk, self.max_sweeps, self.start = chunk, max_sweeps, start
+        self.chains = int(chains)
         self.relaxer = Relaxer(problem)
         self.params = {"seed": int(seed), "tol": float(tol),
                        "kick": "uniform +-<Fn> on fn and ft",
                        "kick_scale": problem.force_scale, "stall": "exact projection onto S"}
+        if self.chains > 1:        # (one chain: the parameters, and files, of before)
+            self.params["chains"] = self.chains
         self.tolerance_description = (f"every sample has max violation <= {tol} relative to "
                                       "<Fn> (checked after relaxation)")
 
+    def _streams(self):
+        if self.chains == 1:
+            return [np.random.default_rng(self.seed)]
+        return [np.random.default_rng(s) for s in np.random.SeedSequence(self.seed)
+                .spawn(self.chains)]
+
     def set_up(self):
-        """Relax the jammed network (or ``start``): the walk's first point."""
+        """Relax the jammed network (or ``start``): every chain's first point."""
         p = self.problem
         x0 = p.x_jammed if self.start is None else np.asarray(self.start, float)
         x, res, projected = self.relaxer.relax(x0, self.tol, self.chunk, self.max_sweeps,
                                                self.seed)
-        self.x, self.rng = x, np.random.default_rng(self.seed)
+        self.x, self.rng = np.tile(x, (self.chains, 1)), self._streams()
         self.sweeps_total, self.projected = int(res.sweeps), []
-        self.start_projected = bool(projected)
         arrays, attrs = self.state(0)
         attrs["start_projected"] = int(projected)
         return ({"x_start": x}, {"x_start": ("F0", "jammed network relaxed to tol (walk start)")},
@@ -150,13 +162,19 @@ class _Walk:
     def resume(self, stored) -> None:
         """Continue from an ensemble file's checkpoint."""
         path = stored.ensemble.path
-        self.x = stored.checkpoint["x"].copy()
-        if self.x.shape != (self.problem.n_columns,) or not np.all(np.isfinite(self.x)):
-            raise InputError(path, "checkpoint/x", f"must be a finite vector of shape "
-                             f"({self.problem.n_columns},); delete the file to restart")
-        self.rng = np.random.default_rng()
+        x = np.asarray(stored.checkpoint["x"], float).reshape(-1, self.problem.n_columns) \
+            if np.size(stored.checkpoint["x"]) == self.chains * self.problem.n_columns \
+            else None
+        if x is None or not np.all(np.isfinite(x)):
+            raise InputError(path, "checkpoint/x", f"must be {self.chains} finite vector(s) "
+                             f"of length {self.problem.n_columns}; delete the file to restart")
+        self.x = x.copy()
         try:
-            self.rng.bit_generator.state = json.loads(stored.checkpoint_attrs["rng_state"])
+            states = json.loads(stored.checkpoint_attrs["rng_state"])
+            states = [states] if self.chains == 1 else states
+            self.rng = [np.random.default_rng() for _ in range(self.chains)]
+            for g, st in zip(self.rng, states, strict=True):
+                g.bit_generator.state = st
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(path, "checkpoint/rng_state", f"unreadable ({exc}); the "
                              "checkpoint is corrupt: delete the file to restart") from None
@@ -164,25 +182,29 @@ class _Walk:
         self.projected = [int(i) for i in stored.checkpoint.get("projected", [])]
 
     def draw(self, i: int):
-        xk = kick(self.x, self.problem.mu, self.problem.force_scale, self.rng)
+        c = i % self.chains
+        xk = kick(self.x[c], self.problem.mu, self.problem.force_scale, self.rng[c])
         xn, res, projected = self.relaxer.relax(xk, self.tol, self.chunk, self.max_sweeps,
                                                 self.seed + 1 + i)
         v = self.problem.violation(xn)
         if not v <= self.tol:
             raise NumericalError(f"relax sample {i} violates S by {v:.3e} x <Fn> "
                                  f"({res.message})")
-        self.x = xn
+        self.x[c] = xn
         self.sweeps_total += res.sweeps
         if projected:
             self.projected.append(i)
-        return xn, 0, v
+        return xn, c, v
 
     def postfix(self) -> dict:
         return {"projected": len(self.projected)}
 
     def state(self, n_total: int):
-        return ({"x": self.x, "projected": np.array(self.projected, np.int64)},
-                {"rng_state": json.dumps(self.rng.bit_generator.state), "n_done": n_total,
+        one = self.chains == 1
+        rng = [g.bit_generator.state for g in self.rng]
+        return ({"x": self.x[0] if one else self.x,
+                 "projected": np.array(self.projected, np.int64)},
+                {"rng_state": json.dumps(rng[0] if one else rng), "n_done": n_total,
                  "sweeps_total": int(self.sweeps_total), "n_projected": len(self.projected)})
 
 
@@ -202,16 +224,20 @@ class RelaxWalk(Computed):
     def __init__(self, n: int = 100, seed: int = 0, tol: float = config.SAMPLE_VIOLATION,
                  chunk: int = 200, max_sweeps: int = 2_000_000,
                  max_seconds: float | None = None, checkpoint_every: int = 10,
-                 progress: bool = False):
+                 progress: bool = False, chains: int = 1, target_ess: float | None = None):
         check_options(n, tol, checkpoint_every)
+        require_int("sample", "chains", chains, 1, "independent walks")
+        check_target(target_ess)
         self.n, self.seed, self.tol, self.progress = n, seed, tol, progress
-        self.chunk, self.max_sweeps = chunk, max_sweeps
+        self.chunk, self.max_sweeps, self.chains = chunk, max_sweeps, chains
         self.max_seconds, self.checkpoint_every = max_seconds, checkpoint_every
+        self.target_ess = target_ess
 
     def compute(self, problem: StaticsProblem, output=None, start=None) -> "RelaxWalk":
         """Walk through S of ``problem`` (refuses an empty or unbounded S)."""
         t0 = time.perf_counter()
-        walk = _Walk(problem, self.seed, self.tol, self.chunk, self.max_sweeps, start)
+        walk = _Walk(problem, self.seed, self.tol, self.chunk, self.max_sweeps, start,
+                     self.chains)
         feas, _, _ = check_feasible(problem)
         if not feas:
             raise InputError(problem.source or "problem", "S",
@@ -221,8 +247,9 @@ class RelaxWalk(Computed):
             raise InputError(problem.source or "problem", "S",
                              "is unbounded (a recession direction exists, e.g. a wedged "
                              "contact); refusing to sample")
-        ens = run_walk(walk, problem, self.n, output, self.checkpoint_every, self.max_seconds,
-                       self.progress, t_start=t0)
+        ens = run_walk(walk, problem, Stop(self.n, self.max_seconds, self.target_ess,
+                                           self.chains, self.seed),
+                       output, self.checkpoint_every, self.progress, t_start=t0)
         self._start()
         self._results.update(ensemble=ens, sweeps_total=walk.sweeps_total,
                              projected=np.array(walk.projected, np.int64),
