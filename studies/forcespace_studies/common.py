@@ -4,6 +4,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import forcespace as fs
 from forcespace import jam, read_packing, write_packing
 from forcespace.io.outputs import file_lock
 
@@ -40,3 +41,52 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
                 **(overrides or {}))
         write_packing(p, path)
         return read_packing(path), time.perf_counter() - t0
+
+
+# Rule 4 of the report (report.RULES): a sampling run enters a verdict only if it converged
+TARGET_ESS = 100.0
+RHAT_MAX = 1.05
+SAMPLERS = ("hit_and_run", "relax")
+
+
+def sampler(name: str, seed: int, cap: int, max_seconds, **options):
+    """The study's sampler ``name`` ("hit_and_run" or "relax"): 4 chains run to ESS 100 on
+    every tracked statistic, capped at ``cap`` samples and ``max_seconds``."""
+    cls = fs.HitAndRun if name == "hit_and_run" else fs.RelaxWalk
+    return cls(n=cap, seed=seed, chains=4, target_ess=TARGET_ESS, max_seconds=max_seconds,
+               **options)
+
+
+def run_samplers(row: dict, runs, prob, wd, tag: str = "") -> None:
+    """Run each (name, sampler) of ``runs`` on ``prob`` into ``wd/NAME{tag}.h5`` and add
+    to ``row``: eta_NAME (every run's), converged_NAME (rule 4: finished with bulk and
+    tail ESS >= 100 and R-hat <= 1.05 on every tracked statistic), n_NAME, ess_NAME,
+    rhat_NAME, t_NAME_s, and relax_projected (stalls finished by projection). A run that
+    fails keeps the row: error_NAME says why."""
+    from forcespace.errors import ForcespaceError
+
+    for name, smp in runs:
+        t0 = time.perf_counter()
+        try:
+            ens = smp.compute(prob, output=Path(wd) / f"{name}{tag}.h5").ensemble
+        except ForcespaceError as exc:
+            row.update({f"eta_{name}": None, f"converged_{name}": False,
+                        f"error_{name}": f"{type(exc).__name__}: {exc}",
+                        f"t_{name}_s": time.perf_counter() - t0})
+            continue
+        d = ens.diagnostics
+        ess, rhat = d.get("min_ess"), d.get("max_rhat")
+        row.update({f"eta_{name}": ens.eta if ens.n_samples >= 2 else None,
+                    f"n_{name}": ens.n_samples, f"ess_{name}": ess, f"rhat_{name}": rhat,
+                    f"converged_{name}": bool(smp.success and ess is not None
+                                              and ess >= TARGET_ESS and rhat <= RHAT_MAX),
+                    f"stop_{name}": smp.message, f"t_{name}_s": time.perf_counter() - t0})
+        if name == "relax":
+            row["relax_projected"] = int(smp.projected.size)
+
+
+def determinate(row: dict, names=SAMPLERS) -> None:
+    """S is one point (dim S = 0, mu > 0): eta is 0 exactly, for every sampler, converged
+    by definition (nothing to sample)."""
+    for name in names:
+        row.update({f"eta_{name}": 0.0, f"converged_{name}": True, f"n_{name}": 0})

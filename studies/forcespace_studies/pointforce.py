@@ -84,7 +84,7 @@ def summarize(results: list[dict], out) -> dict:
     from matplotlib.figure import Figure
 
     from forcespace.plot import save_figure
-    from .fig1 import argmax_bootstrap, location_verdict
+    from .stats import argmax_bootstrap, interval_verdict, near
     from .report import Verdict, write_csv, write_section
 
     out = Path(out)
@@ -140,7 +140,7 @@ def summarize(results: list[dict], out) -> dict:
             f"smallest mean depth at mu = {m_min:g} (95 % bootstrap interval {lo:g}-{hi:g}); "
             + ", ".join(f"{depth[m].mean():.1f} ± {depth[m].std():.1f} R at mu = {m:g}"
                         for m in mus),
-            location_verdict(lo, hi)))
+            interval_verdict(lo, hi, near(0.1))))
     text = (f"{len(rows)} layers ({rows[0]['params']['n_disks'] if rows else '?'} disks, "
             f"radii R-2R, periodic width {rows[0]['params']['width'] if rows else '?'} R, "
             f"settled under gravity on a floor with the disks' friction). The highest disk "
