@@ -143,7 +143,7 @@ def test_interrupted_compression_resumes_bit_identically(tmp_path):
     from forcespace.errors import NumericalError
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
     fresh = build_packing(scene, show_progress=False)
-    ck = tmp_path / "p.h5.checkpoint.npz"
+    ck = tmp_path / "p.h5.checkpoint.h5"
     with pytest.raises(NumericalError, match="resumes from"):
         build_packing(scene.with_overrides(**{"jamming.max_steps": 600}), show_progress=False,
                       checkpoint=ck)
@@ -159,7 +159,7 @@ def test_interrupted_compression_resumes_bit_identically(tmp_path):
 def test_checkpoint_of_another_scene_is_refused(tmp_path):
     from forcespace.errors import InputError, NumericalError
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
-    ck = tmp_path / "c.npz"
+    ck = tmp_path / "c.h5"
     with pytest.raises(NumericalError):
         build_packing(scene.with_overrides(**{"jamming.max_steps": 200}), show_progress=False,
                       checkpoint=ck)

@@ -1,12 +1,8 @@
 """Nonlinear Gauss-Seidel contact solver (Moreau-Jean, Unger's formulation).
 
-Pure numba kernels over arrays, no I/O. Bodies are indexed 0..nb-1 (disks
-first, then walls); a wall has zero inverse mass in the directions it cannot
-move. Contact k joins body ``a[k]`` and ``b[k]`` with unit normal (nx, ny)
-from a to b; the force ``rn*n + rt*t`` (t = (-ny, nx)) acts on b, its negative
-on a. Lever arms are ``ra*n`` from a's centre and ``-rb*n`` from b's centre
-(ra, rb = radii; 0 for walls), so a tangential force rt exerts the torque
-``-r*rt`` on both bodies.
+Pure numba kernels, no I/O, behind the public functions :func:`solve`,
+:func:`effective_masses` and :func:`add_contact_velocities`. Records, body layout,
+contact convention and units: :mod:`forcespace.engine.records`.
 
 Velocities are end-of-step velocities, always consistent with the current
 forces: ``v = v_free + dt * M^-1 (sum of contact forces)``.
@@ -21,16 +17,93 @@ tangential updates so that this is checkable.
 from __future__ import annotations
 
 import numpy as np
+
 from ..kernels import kernel
+from .records import Contacts, Motion, SweepSettings, SweepStats
+from .streams import order_state, shuffle
+
+
+def _check_contacts(c: Contacts, nb: int) -> Contacts:
+    """The contact record with contiguous arrays of the kernel dtypes; ValueError if a
+    shape differs or a body index is out of range."""
+    nc = np.shape(c.a)[0]
+    out = Contacts(*(np.ascontiguousarray(v, dtype=np.int64 if name in ("a", "b", "keys")
+                                          else float)
+                     for name, v in zip(Contacts._fields, c)))
+    for name, v in zip(Contacts._fields, out):
+        if v.shape != (nc,) and not (name == "keys" and v.shape == (0,)):
+            raise ValueError(f"contacts.{name} must have shape ({nc},), got {v.shape}")
+    if nc and (min(out.a.min(), out.b.min()) < 0 or max(out.a.max(), out.b.max()) >= nb):
+        raise ValueError(f"contact body indices must lie in [0, {nb})")
+    return out
+
+
+def _check_motion(m: Motion) -> Motion:
+    nb = np.shape(m.vx)[0]
+    for name, v in zip(Motion._fields, m):
+        if not (isinstance(v, np.ndarray) and v.dtype == np.float64 and v.shape == (nb,)
+                and v.flags.c_contiguous):
+            raise ValueError(f"motion.{name} must be a contiguous float64 array of shape "
+                             f"({nb},) (velocities are updated in place)")
+    return m
+
+
+def _check_forces(rn, rt, nc: int):
+    for name, v in (("rn", rn), ("rt", rt)):
+        if not (isinstance(v, np.ndarray) and v.dtype == np.float64 and v.shape == (nc,)
+                and v.flags.c_contiguous):
+            raise ValueError(f"{name} must be a contiguous float64 array of shape ({nc},) "
+                             "(updated in place)")
+
+
+def effective_masses(contacts: Contacts, motion: Motion):
+    """Normal and tangential effective masses (Nc,) each [rho R^2] (see :func:`masses_kernel`)."""
+    m = _check_motion(motion)
+    return masses_kernel(_check_contacts(contacts, m.vx.shape[0]), m)
+
+
+def add_contact_velocities(contacts: Contacts, rn, rt, motion: Motion, dt: float) -> None:
+    """Add dt M^-1 (contact forces rn, rt (Nc,) [sigma]) to the velocities of ``motion``
+    in place; dt [T]."""
+    m = _check_motion(motion)
+    c = _check_contacts(contacts, m.vx.shape[0])
+    rn = np.ascontiguousarray(rn, dtype=float)
+    rt = np.ascontiguousarray(rt, dtype=float)
+    _check_forces(rn, rt, c.a.shape[0])
+    velocities_kernel(c, rn, rt, m, float(dt))
+
+
+def solve(contacts: Contacts, motion: Motion, rn, rt, settings: SweepSettings,
+          seed: int) -> SweepStats:
+    """Gauss-Seidel sweeps until the forces converge (see :func:`solve_kernel`).
+
+    ``contacts``: :class:`~forcespace.engine.records.Contacts`; ``motion``: velocities
+    (updated in place) and inverse masses; rn, rt (Nc,) [sigma]: the starting forces,
+    updated in place; ``settings``: :class:`~forcespace.engine.records.SweepSettings`;
+    ``seed`` >= 0: the sweep order's seed (:mod:`forcespace.engine.streams`).
+    """
+    m = _check_motion(motion)
+    c = _check_contacts(contacts, m.vx.shape[0])
+    _check_forces(rn, rt, c.a.shape[0])
+    s = settings
+    if not (s.dt > 0 and 0 <= s.tol and s.max_sweeps >= 0 and 0 < s.relaxation < 2
+            and s.block >= 0):
+        raise ValueError(f"invalid solver settings {s}")
+    s = SweepSettings(float(s.dt), float(s.tol), int(s.max_sweeps), float(s.relaxation),
+                      int(s.block), float(s.overlap_correction), float(s.overlap_slop),
+                      int(s.relax_until))
+    return solve_kernel(c, m, rn, rt, s, int(seed))
 
 
 @kernel
-def effective_masses(a, b, nx, ny, ra, rb, inv_mx, inv_my, inv_i):
+def masses_kernel(c, m):
     """Normal and tangential effective masses, shape (Nc,) each.
 
     1/m_n = n.(M_a^-1 + M_b^-1).n, 1/m_t = t.(M_a^-1 + M_b^-1).t + ra^2/I_a + rb^2/I_b.
     A contact between two immovable bodies gets m = 0 (it never changes).
     """
+    a, b, nx, ny, ra, rb = c.a, c.b, c.nx, c.ny, c.ra, c.rb
+    inv_mx, inv_my, inv_i = m.inv_mx, m.inv_my, m.inv_i
     nc = a.shape[0]
     mn = np.zeros(nc)
     mt = np.zeros(nc)
@@ -48,9 +121,10 @@ def effective_masses(a, b, nx, ny, ra, rb, inv_mx, inv_my, inv_i):
 
 
 @kernel
-def add_contact_velocities(a, b, nx, ny, ra, rb, rn, rt, inv_mx, inv_my, inv_i, dt,
-                           vx, vy, w):
+def velocities_kernel(c, rn, rt, m, dt):
     """Add dt * M^-1 * (contact forces) to the velocities, in place."""
+    a, b, nx, ny, ra, rb = c.a, c.b, c.nx, c.ny, c.ra, c.rb
+    vx, vy, w, inv_mx, inv_my, inv_i = m.vx, m.vy, m.w, m.inv_mx, m.inv_my, m.inv_i
     for k in range(a.shape[0]):
         i = a[k]
         j = b[k]
@@ -66,23 +140,9 @@ def add_contact_velocities(a, b, nx, ny, ra, rb, rn, rt, inv_mx, inv_my, inv_i, 
 
 
 @kernel(inline="always")
-def _shuffle(order, m, state):
-    """Fisher-Yates shuffle of order[:m] in place (xorshift64* generator); new state."""
-    for s in range(m - 1, 0, -1):
-        state ^= state >> np.uint64(12)
-        state ^= state << np.uint64(25)
-        state ^= state >> np.uint64(27)
-        q = np.int64((state * np.uint64(0x2545F4914F6CDD1D)) >> np.uint64(33)) % (s + 1)
-        tmp = order[s]
-        order[s] = order[q]
-        order[q] = tmp
-    return state
-
-
-@kernel(inline="always")
 def _block_order(order, runs, block, state):
     """order = runs of ``block`` consecutive contacts in a fresh random run order."""
-    state = _shuffle(runs, runs.shape[0], state)
+    state = shuffle(runs, runs.shape[0], state)
     nc = order.shape[0]
     c = 0
     for q in range(runs.shape[0]):
@@ -93,10 +153,11 @@ def _block_order(order, runs, block, state):
 
 
 @kernel
-def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
-               inv_mx, inv_my, inv_i, dt, tol, max_sweeps, seed, overlap_correction=0.0,
-               overlap_slop=0.0, relaxation=1.0, block=0):
+def solve_kernel(c, m, rn, rt, s, seed):
     """Iterate Gauss-Seidel sweeps until the forces converge.
+
+    c: Contacts (Nc,); m: Motion (nb,), velocities updated in place; rn, rt (Nc,)
+    [sigma] updated in place; s: SweepSettings; seed: sweep-order seed (int >= 0).
 
     Sweeps visit all contacts in a fresh random order (seeded by ``seed``):
     ``block = 0`` shuffles single contacts (the paper's rule); ``block = B > 0``
@@ -108,21 +169,27 @@ def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
     solution; omega = 1 is plain Gauss-Seidel. Both leave the fixed points
     (the converged forces) unchanged. Over-relaxation can oscillate where the
     optimal omega is near 1 (small, strongly frictional systems), so a solve that
-    has not converged after half of ``max_sweeps`` finishes with omega = 1.
+    has not converged by sweep ``relax_until`` (-1: half of ``max_sweeps``)
+    finishes with omega = 1.
     ``overlap_correction`` = beta in [0, 1] and ``overlap_slop`` = s >= 0: a
     contact overlapping by more than s (gap < -s) aims at removing the fraction
     beta of the excess in this step (g+ -> beta*(g + s)); smaller overlaps are
     left alone, so a packing with all overlaps below s is at rest exactly under
     Unger's rule (beta = 0: overlaps are never pushed apart).
     Convergence: sum|dR| over a sweep <= tol * sum|R| after it.
-    ``rn, rt, vx, vy, w`` are updated in place.
 
-    Returns (sweeps, relative_change, normal_updates, tangential_updates).
+    Returns SweepStats.
     """
+    a, b, nx, ny, ra, rb, gap, mu = c.a, c.b, c.nx, c.ny, c.ra, c.rb, c.gap, c.mu
+    vx, vy, w, inv_mx, inv_my, inv_i = m.vx, m.vy, m.w, m.inv_mx, m.inv_my, m.inv_i
+    dt, tol, max_sweeps, relaxation, block = s.dt, s.tol, s.max_sweeps, s.relaxation, s.block
+    overlap_correction, overlap_slop = s.overlap_correction, s.overlap_slop
+    fallback = max_sweeps // 2 if s.relax_until < 0 else s.relax_until
+    mn, mt = masses_kernel(c, m)
     nc = a.shape[0]
     order = np.arange(nc)
     runs = np.arange((nc + block - 1) // block) if block > 0 else np.zeros(0, np.int64)
-    state = np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(0x632BE59BD9B4E019)
+    state = order_state(seed)
     inv_mn = np.zeros(nc)
     inv_mt = np.zeros(nc)
     for k in range(nc):
@@ -136,12 +203,12 @@ def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
     sweeps = 0
     for sweep in range(max_sweeps):
         sweeps = sweep + 1
-        if sweep == max_sweeps // 2:
+        if sweep == fallback:
             relaxation = 1.0   # over-relaxation that has not converged: plain Gauss-Seidel
         if block > 0:
             state = _block_order(order, runs, block, state)
         else:
-            state = _shuffle(order, nc, state)
+            state = shuffle(order, nc, state)
         dsum = 0.0
         for idx in range(nc):
             k = order[idx]
@@ -202,4 +269,4 @@ def nlgs_solve(a, b, nx, ny, ra, rb, gap, mu, mn, mt, rn, rt, vx, vy, w,
         rel = dsum / rsum if rsum > 0.0 else (0.0 if dsum == 0.0 else np.inf)
         if rel <= tol:
             break
-    return sweeps, rel, n_norm, n_tang
+    return SweepStats(sweeps, rel, n_norm, n_tang)
