@@ -73,7 +73,10 @@ def next_state(state):
 def draw_below(state, m):
     """A number in [0, m) from the (already advanced) state: the xorshift64* output's
     high bits modulo m."""
-    return np.int64((state * np.uint64(0x2545F4914F6CDD1D)) >> np.uint64(33)) % m
+    x = (state * np.uint64(0x2545F4914F6CDD1D)) >> np.uint64(33)   # < 2^31
+    if m <= 2147483647:      # the same remainder by a 32-bit division (several x faster)
+        return np.int64(np.uint32(x) % np.uint32(m))
+    return np.int64(x) % m
 
 
 @kernel(inline="always")
