@@ -103,9 +103,16 @@ def test_overflowing_scene_values_are_refused(tmp_path, capsys, section, line, f
     assert field in capsys.readouterr().err
 
 
-def test_a_time_step_far_too_large_is_a_clear_non_convergence(tmp_path, capsys):
+def test_a_time_step_far_too_large_is_refused_or_a_clear_non_convergence(tmp_path, capsys):
     scene = tmp_path / "s.toml"
+    # under a plate: refused before any work (the plate would jump the contact margin)
     scene.write_text("[disks]\nn = 20\n[box]\nwidth = 20.0\n[solver]\ndt = 1e6\n")
+    assert main(["pack", str(scene), "-o", str(tmp_path / "p.h5"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "solver.dt" in err and "plates.top_mass" in err and "Traceback" not in err
+    # under gravity alone: the disks fall through the floor, a clear non-convergence
+    scene.write_text("[disks]\nn = 20\n[box]\nwidth = 20.0\n[solver]\ndt = 1e6\n"
+                     "[physics]\ngravity = 1.0\n[plates]\ntop = \"none\"\n")
     assert main(["pack", str(scene), "-o", str(tmp_path / "p.h5"), "--quiet"]) == 3
     err = capsys.readouterr().err
     assert "solver.dt" in err and "reduce" in err and "Traceback" not in err

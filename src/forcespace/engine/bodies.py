@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import NumericalError
+from ..errors import InputError, NumericalError
 from ..model.scene import Scene
 from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP
 from .records import Box, StepSettings, SweepSettings
@@ -169,3 +169,25 @@ def step_settings(scene: Scene, v0: float = 1.0) -> tuple[StepSettings, SweepSet
         overlap_slop=float(scene["solver.overlap_slop"]),
         relax_until=-1 if fallback == 0.5 else int(fallback * sweeps))
     return step, sweep
+
+
+def check_scene(scene: Scene) -> None:
+    """Refuse (InputError) a scene the time stepper cannot run faithfully, before any work.
+
+    A load-controlled plate of mass M under its load F moves dt^2 F / M in one step from
+    rest (dt is measured in the load's time unit, so that is ``solver.dt**2 /
+    plates.top_mass`` [R]); beyond ``solver.contact_margin`` it can pass the margin
+    between two contact detections and end in overlaps no step removes (top_mass = 1e-6
+    kept 4.5e-3 R, 22 000 x the slop).
+    """
+    if scene["plates.top"] != "load":
+        return
+    free_step = scene["solver.dt"] ** 2 / scene["plates.top_mass"]
+    margin = scene["solver.contact_margin"]
+    if free_step > margin:
+        raise InputError(scene.source, "plates.top_mass",
+                         f"must be >= solver.dt^2 / solver.contact_margin = "
+                         f"{scene['solver.dt'] ** 2 / margin:.3g} (the plate would move "
+                         f"{free_step:.3g} R in one step from rest, more than the contact "
+                         f"margin {margin:g} R: contacts are missed); raise it or lower "
+                         "solver.dt", got=scene["plates.top_mass"])

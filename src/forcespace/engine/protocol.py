@@ -22,8 +22,8 @@ import numpy as np
 from ..errors import NumericalError
 from ..model.packing import Packing
 from ..model.scene import Scene
-from .bodies import (Bodies, force_unit, loose_start, make_bodies,  # noqa: F401 (API)
-                     random_radii, row_order)
+from .bodies import (Bodies, check_scene, force_unit, loose_start,  # noqa: F401 (API)
+                     make_bodies, random_radii, row_order)
 from .compress import compress
 from .interrupts import deferred_sigint
 from .static import static_solve
@@ -51,6 +51,7 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
     the packing is built. Raises NumericalError (not jammed, static solve or overlap
     out of tolerance), Interrupted (Ctrl-C; the checkpoint is saved first).
     """
+    check_scene(scene)
     seed = scene["scene.seed"]
     bodies = start_bodies(scene)
     t0 = time.perf_counter()

@@ -119,12 +119,13 @@ def steps_kernel(bodies, box, step, sweep, prev, nsteps, seed, step0):
         c = contacts_kernel(ints, floats, r, step.mu_disk, step.mu_wall)
         rn, rt = warm_start(c.keys, keys, rn, rt)
         keys = c.keys
+        moving = step.tol_moving > 0.0 and abs(vy[n + 1]) > step.moving_speed
         for i in range(nb):
             if fy_ext[i] != 0.0:  # only the forces the scene asks for
                 vy[i] += dt * fy_ext[i] * inv_my[i]
         velocities_kernel(c, rn, rt, motion, dt)
         settings = sweep
-        if step.tol_moving > 0.0 and abs(vy[n + 1]) > step.moving_speed:
+        if moving:     # the plate moved faster than moving_speed in the last step
             settings = SweepSettings(dt, step.tol_moving, max_sweeps, sweep.relaxation,
                                      sweep.block, sweep.overlap_correction,
                                      sweep.overlap_slop, sweep.relax_until)
