@@ -1,6 +1,7 @@
 # forcespace: `make demo` installs everything and runs the main job on a small scene;
 # `make test` runs the test suite; `make bench` writes benchmark figures to studies/out/
-# (studies/bench.py, then studies/accuracy_vs_time.py, which needs LIGGGHTS).
+# (studies/bench.py, then studies/accuracy_vs_time.py, which needs LIGGGHTS, then the engine's
+# CPU benchmarks against the old engine and pymunk, forcespace_studies.bench_engine).
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -37,6 +38,7 @@ test: install liggghts
 bench: install liggghts
 	$(BIN)/python studies/bench.py
 	$(BIN)/python studies/accuracy_vs_time.py
+	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_engine
 
 clean:
 	rm -rf out .numba_cache .pytest_cache

@@ -324,3 +324,18 @@ def test_a_packing_that_keeps_overlaps_above_the_bound_is_a_non_convergence(quic
     assert 0 < worst < scene["jamming.max_overlap"]
     with pytest.raises(NumericalError, match="overlap of"):
         check_overlap(scene.with_overrides(**{"jamming.max_overlap": 0.5 * worst}), quick)
+
+
+def test_the_jam_progress_is_the_log_of_the_mean_speed_against_its_tolerance():
+    # issue 25: the bar counted to the 400 000-step cap (a 21-hour ETA for a 6 400-step
+    # jam); it now measures log(v_ref / v_mean) / log(v_ref / v_tol)
+    from forcespace.engine.compress import JamProgress, Run
+    run = Run(v_ref=1.0)
+    bar = JamProgress(1e-6, False, run, 400_000)
+    for steps, v, want in ((200, 1.0, 0.0), (400, 1e-3, 50.0), (600, 1e-2, 50.0),
+                           (800, 1e-5, 5 / 6 * 100), (1000, 1e-7, 100.0)):
+        run.steps = steps
+        run.log.append((steps, v, v, 10.0, 1e-7))
+        bar.update(run)
+        assert bar.done == pytest.approx(want)     # never moves back (v = 1e-2 after 1e-3)
+    bar.close()

@@ -95,8 +95,8 @@ class JamProgress:
     """Progress of a jam by its own measure: the window mean speed on a log scale from
     the largest one seen (0 %) to the rest tolerance (100 %), never moving back."""
 
-    def __init__(self, v_tol: float, show: bool, run: Run):
-        self.v_tol = v_tol
+    def __init__(self, v_tol: float, show: bool, run: Run, max_steps: int):
+        self.v_tol, self.max_steps = v_tol, max_steps
         self.bar = progress(total=100.0, desc="compressing", unit="%", disable=not show)
         self.bar.bar_format = ("{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}]"
                                "{postfix}")
@@ -112,11 +112,11 @@ class JamProgress:
             elif run.v_ref > self.v_tol:
                 frac = math.log(run.v_ref / v) / math.log(run.v_ref / self.v_tol)
             frac = min(max(frac, 0.0), 1.0)
-            if 100.0 * frac > self.done:
-                self.bar.update(100.0 * frac - self.done)
-                self.done = 100.0 * frac
-            self.bar.set_postfix_str(f"{run.steps} steps, v_mean/v_tol {v / self.v_tol:.1e}, "
+            self.bar.set_postfix_str(f"{run.steps}/{self.max_steps} steps, v_mean/v_tol "
+                                     f"{v / self.v_tol:.1e}, "
                                      f"{run.log[-1][3]:.0f} sweeps/step", refresh=False)
+            self.bar.update(max(100.0 * frac - self.done, 0.0))   # 0: a timed refresh
+            self.done = max(self.done, 100.0 * frac)
 
     def close(self) -> None:
         self.bar.close()
@@ -176,7 +176,7 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
     run = run or Run()
     settings = (scene_box(scene), *step_settings(scene, v0))
     t0 = time.perf_counter()
-    bar = JamProgress(v_tol, show_progress, run)
+    bar = JamProgress(v_tol, show_progress, run, scene["jamming.max_steps"])
     try:
         _windows(scene, bodies, run, seed, settings, v_tol, bar, checkpoint, interrupt)
     finally:

@@ -45,11 +45,10 @@ class ResidualProgress:
         else:
             frac = 0.0
         frac = min(max(frac, 0.0), 1.0)
-        if 100.0 * frac > self.done:
-            self.bar.update(100.0 * frac - self.done)
-            self.done = 100.0 * frac
         self.bar.set_postfix_str(f"{self.sweeps} sweeps, residual {residual:.2e}",
                                  refresh=False)
+        self.bar.update(max(100.0 * frac - self.done, 0.0))     # 0: a timed refresh
+        self.done = max(self.done, 100.0 * frac)
 
     def close(self) -> None:
         self.bar.close()
