@@ -252,12 +252,12 @@ def jam_cpu(src: Path, scene: Path, n: int, out: Path, new: bool) -> dict:
             "rattlers": int(p.rattlers().sum()), "loadavg": os.getloadavg()[0]}
 
 
-def jams(sizes, old_src: Path, repo: Path, work: Path) -> list:
+def jams(sizes, old_src: Path, repo: Path, work: Path, codes=("old", "new")) -> list:
+    """Jam each size with each code (alternating which goes first), in subprocesses."""
     rows = []
     for k, n in enumerate(sizes):
         row = {"n": n}
-        order = ("old", "new") if k % 2 == 0 else ("new", "old")
-        for which in order:
+        for which in (codes if k % 2 == 0 else tuple(reversed(codes))):
             new = which == "new"
             scene = (repo if new else old_src) / "inputs" / "paper_fast.toml"
             row[which] = jam_cpu(old_src, scene, n, work / f"jam_{which}_{n}.h5", new)
@@ -266,6 +266,21 @@ def jams(sizes, old_src: Path, repo: Path, work: Path) -> list:
                 f"z {row[which]['z']:.3f}")
         rows.append(row)
     return rows
+
+
+def old_5000_from_meta() -> dict:
+    """The old code's 5000-disk paper_fast jam (mu = 0.1, seed 1) as committed in
+    studies/big_slice (made by 664c1bb, the same engine numbers as 938734f): steps,
+    updates, z from the file; CPU seconds as measured for issue 22 (about 54 CPU
+    minutes; the file records 4478 s of wall time on a shared machine)."""
+    p = read_packing(PACKINGS[5000])
+    m = p.meta
+    return {"cpu_s": 54 * 60.0, "cpu_source": "issue 22 (about 54 CPU minutes)",
+            "wall_s": float(m["wall_seconds"]), "steps": int(m["steps"]),
+            "sweeps": int(m["sweeps_total"]), "steps_at_sweep_cap": int(m["steps_at_sweep_cap"]),
+            "updates": int(m["normal_updates"] + m["tangential_updates"]),
+            "z": float(p.coordination()), "packing_fraction": p.packing_fraction(),
+            "rattlers": int(p.rattlers().sum()), "source": PACKINGS[5000]}
 
 
 def exponent(rows, which: str, key: str = "cpu_s"):
@@ -293,8 +308,9 @@ def merge(path: Path, section: dict) -> None:
     data = json.loads(path.read_text()) if path.is_file() else {}
     old = data.get("engine", {})
     if "jams" in section and "jams" in old:
-        by_n = {r["n"]: r for r in old["jams"]}
-        by_n.update({r["n"]: r for r in section["jams"]})
+        by_n = {r["n"]: dict(r) for r in old["jams"]}
+        for r in section["jams"]:          # per size and code: the newest run wins
+            by_n.setdefault(r["n"], {}).update(r)
         section["jams"] = [by_n[n] for n in sorted(by_n)]
     if "jams" in section:
         section["jam_exponent"] = {w: exponent(section["jams"], w) for w in ("old", "new")}
@@ -314,14 +330,19 @@ def main(argv=None) -> int:
                     help=f"sources of the old code (default: exported from git at {OLD_COMMIT})")
     ap.add_argument("--out", type=Path, default=Path("studies/out"))
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--which", default="old,new", help="which codes to jam (old, new)")
+    ap.add_argument("--old-5000-from-meta", action="store_true",
+                    help="record the old 5000-disk jam from the committed packing's metadata "
+                         "(steps, updates, z; its time was wall time on a shared machine) "
+                         "and issue 22's CPU figure, instead of running it (~1 CPU hour)")
     a = ap.parse_args(argv)
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     repo = Path.cwd()
     a.out.mkdir(parents=True, exist_ok=True)
     old_src = a.old_src or old_sources(repo, a.out / f"old_engine_{OLD_COMMIT}")
-    do_updates = a.updates or a.jams is None
+    do_updates = a.updates or (a.jams is None and not a.old_5000_from_meta)
     sizes = [int(s) for s in a.jams.split(",")] if a.jams else ([200, 800, 2000]
-                                                                 if not a.updates else [])
+                                                                 if not (a.updates or a.old_5000_from_meta) else [])
     section = {"old_commit": OLD_COMMIT, "machine": platform.platform(),
                "cpu_count": os.cpu_count(), "timing": "CPU (user + sys)"}
     if do_updates:
@@ -330,8 +351,11 @@ def main(argv=None) -> int:
     if sizes:
         log(f"jams of inputs/paper_fast.toml at mu = 0.1, seed 1, n = {sizes} ...")
         with tempfile.TemporaryDirectory() as tmp:
-            jams([20], old_src, repo, Path(tmp))     # compiles both kernel caches (discarded)
-            section["jams"] = jams(sizes, old_src, repo, Path(tmp))
+            which = tuple(a.which.split(","))
+            jams([20], old_src, repo, Path(tmp), which)   # compiles the kernel caches
+            section["jams"] = jams(sizes, old_src, repo, Path(tmp), which)
+    if a.old_5000_from_meta:
+        section.setdefault("jams", []).append({"n": 5000, "old": old_5000_from_meta()})
     merge(a.out / "bench.json", section)
     log(f"wrote section 'engine' of {a.out / 'bench.json'}")
     return 0
