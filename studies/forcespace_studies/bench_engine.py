@@ -10,8 +10,9 @@ in CPU seconds (user + sys; a shared machine misleads wall-clock ratios by up to
    from the jammed forces. Beside it pymunk's solver on the same packing
    (``space.step`` at 100 and 1 iterations, solver share (t(100) - t(1)) / 99 per
    contact-iteration), measured in the same rounds: new, old, pymunk, new, ...
-2. **Jams**: CPU seconds of ``forcespace pack inputs/paper_fast.toml --n N --scale-box
-   --mu 0.1 --seed 1`` (subprocesses, getrusage of the children), old and new
+2. **Jams**: CPU seconds of jamming each code's inputs/paper_fast.toml with N disks (the
+   box scaled as ``forcespace pack --n N --scale-box``), mu = 0.1, seed 1, by the
+   protocol's ``build_packing`` (subprocesses, getrusage of the children), old and new
    alternately per size, with steps, contact updates and z, and the exponent of
    CPU ~ n^a fitted (least squares in log-log) over the sizes recorded.
 
@@ -228,18 +229,34 @@ def _children_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
+JAM = r"""
+import sys
+n, mu, seed, scene_file, out, new = sys.argv[1:7]
+if new == "1":
+    from forcespace.model.scene import load_scene
+    from forcespace.engine.protocol import build_packing
+    from forcespace.io.packing_file import write_packing
+else:                                         # the flat layout of 938734f
+    from forcespace.scene import load_scene
+    from forcespace.jamming import build_packing
+    from forcespace.packing_file import write_packing
+scene, _ = load_scene(scene_file).scaled_to(int(n))
+scene = scene.with_overrides(**{"physics.mu": float(mu), "scene.seed": int(seed)})
+write_packing(build_packing(scene, show_progress=False), out)
+"""
+
+
 def jam_cpu(src: Path, scene: Path, n: int, out: Path, new: bool) -> dict:
-    """CPU seconds of one ``forcespace pack`` of ``scene`` with --n n --scale-box --mu 0.1
-    --seed 1, run from the sources ``src`` (a subprocess); the packing's statistics."""
+    """CPU seconds of jamming ``scene`` with n disks (box scaled as ``--n n --scale-box``),
+    mu = 0.1, seed 1, by the protocol's ``build_packing`` of the new code or of the old
+    sources ``src`` (a subprocess, getrusage of the children); the packing's statistics."""
     env = dict(os.environ, OMP_NUM_THREADS="1")
     if not new:
         env["PYTHONPATH"] = str(src / "src")
     out.unlink(missing_ok=True)
-    args = ["pack", str(scene), "--n", str(n), "--scale-box", "--mu", "0.1", "--seed", "1",
-            "-o", str(out), "--quiet"]
-    code = f"import sys; from forcespace.cli import main; sys.exit(main({args!r}))"
     c0, w0 = _children_cpu(), time.perf_counter()
-    res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    res = subprocess.run([sys.executable, "-c", JAM, str(n), "0.1", "1", str(scene), str(out),
+                          "1" if new else "0"], env=env, capture_output=True, text=True)
     cpu, wall = _children_cpu() - c0, time.perf_counter() - w0
     if res.returncode:
         raise RuntimeError(f"pack n={n} ({'new' if new else 'old'}) failed: {res.stderr[-400:]}")
@@ -347,7 +364,7 @@ def main(argv=None) -> int:
                "cpu_count": os.cpu_count(), "timing": "CPU (user + sys)"}
     if do_updates:
         log("contact updates: new, old and pymunk interleaved ...")
-        section["updates"] = updates(old_src, a.rounds)
+        merge(a.out / "bench.json", {**section, "updates": updates(old_src, a.rounds)})
     if sizes:
         log(f"jams of inputs/paper_fast.toml at mu = 0.1, seed 1, n = {sizes} ...")
         with tempfile.TemporaryDirectory() as tmp:
