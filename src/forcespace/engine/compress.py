@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import NumericalError
+from ..errors import InputError, NumericalError
 from ..io.checkpoint import read_checkpoint, write_checkpoint
 from ..model.scene import Scene
 from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP
@@ -71,7 +71,6 @@ def snapshot(bodies: Bodies, run: Run) -> dict:
 def restore(path, scene: Scene, bodies: Bodies) -> Run | None:
     """The run saved in checkpoint ``path`` for ``scene`` (bodies restored in place), or
     None without a checkpoint. InputError for a foreign or corrupt file."""
-    from ..errors import InputError
     state = read_checkpoint(path, scene_identity(scene))
     if state is None:
         return None

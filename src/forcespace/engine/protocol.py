@@ -15,11 +15,11 @@ checkpoint is saved and :class:`~forcespace.engine.interrupts.Interrupted` raise
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
 from ..errors import NumericalError
+from ..io.checkpoint import remove_checkpoint
 from ..model.packing import Packing
 from ..model.scene import Scene
 from .bodies import (Bodies, check_scene, force_unit, loose_start,  # noqa: F401 (API)
@@ -71,7 +71,7 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
     check_overlap(scene, packing)
     packing.meta = meta
     if checkpoint:
-        Path(checkpoint).unlink(missing_ok=True)
+        remove_checkpoint(checkpoint)
     return packing
 
 

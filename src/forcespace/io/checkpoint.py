@@ -89,3 +89,8 @@ def read_checkpoint(path, scene: str) -> dict | None:
         raise InputError(path, "(checkpoint)", "arrays of inconsistent shapes; delete it to "
                          "start afresh")
     return out
+
+
+def remove_checkpoint(path) -> None:
+    """Delete a finished run's checkpoint (no error if it is gone)."""
+    Path(path).unlink(missing_ok=True)
