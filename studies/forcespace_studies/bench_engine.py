@@ -269,8 +269,10 @@ def jam_cpu(src: Path, scene: Path, n: int, out: Path, new: bool) -> dict:
             "rattlers": int(p.rattlers().sum()), "loadavg": os.getloadavg()[0]}
 
 
-def jams(sizes, old_src: Path, repo: Path, work: Path, codes=("old", "new")) -> list:
-    """Jam each size with each code (alternating which goes first), in subprocesses."""
+def jams(sizes, old_src: Path, repo: Path, work: Path, codes=("old", "new"),
+         record=None) -> list:
+    """Jam each size with each code (alternating which goes first), in subprocesses;
+    ``record(row)`` is called after each size (e.g. to merge it into the JSON file)."""
     rows = []
     for k, n in enumerate(sizes):
         row = {"n": n}
@@ -282,6 +284,8 @@ def jams(sizes, old_src: Path, repo: Path, work: Path, codes=("old", "new")) -> 
                 f"{row[which]['steps']} steps, {row[which]['updates']:.3g} updates, "
                 f"z {row[which]['z']:.3f}")
         rows.append(row)
+        if record is not None:
+            record(row)
     return rows
 
 
@@ -298,6 +302,21 @@ def old_5000_from_meta() -> dict:
             "updates": int(m["normal_updates"] + m["tangential_updates"]),
             "z": float(p.coordination()), "packing_fraction": p.packing_fraction(),
             "rattlers": int(p.rattlers().sum()), "source": PACKINGS[5000]}
+
+
+def recorded(spec: str) -> dict:
+    """A row {"n", CODE} from ``CODE:N:PACKING:CPU_S`` (a jam run separately)."""
+    code, n, rest = spec.split(":", 2)
+    path, cpu = rest.rsplit(":", 1)
+    p = read_packing(path)
+    m = p.meta
+    return {"n": int(n), code: {
+        "cpu_s": float(cpu), "cpu_source": "recorded from a separate run (user + sys)",
+        "steps": int(m["steps"]), "sweeps": int(m["sweeps_total"]),
+        "steps_at_sweep_cap": int(m["steps_at_sweep_cap"]),
+        "updates": int(m["normal_updates"] + m["tangential_updates"]),
+        "z": float(p.coordination()), "packing_fraction": p.packing_fraction(),
+        "rattlers": int(p.rattlers().sum())}}
 
 
 def exponent(rows, which: str, key: str = "cpu_s"):
@@ -324,8 +343,8 @@ def merge(path: Path, section: dict) -> None:
     by size, the newest run winning)."""
     data = json.loads(path.read_text()) if path.is_file() else {}
     old = data.get("engine", {})
-    if "jams" in section and "jams" in old:
-        by_n = {r["n"]: dict(r) for r in old["jams"]}
+    if "jams" in section:
+        by_n = {r["n"]: dict(r) for r in old.get("jams", [])}
         for r in section["jams"]:          # per size and code: the newest run wins
             by_n.setdefault(r["n"], {}).update(r)
         section["jams"] = [by_n[n] for n in sorted(by_n)]
@@ -348,6 +367,9 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=Path("studies/out"))
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--which", default="old,new", help="which codes to jam (old, new)")
+    ap.add_argument("--add", action="append", metavar="CODE:N:PACKING:CPU_S",
+                    help="record a jam of CODE (old or new) run separately (e.g. in the "
+                         "background with /usr/bin/time): its packing file and CPU s")
     ap.add_argument("--old-5000-from-meta", action="store_true",
                     help="record the old 5000-disk jam from the committed packing's metadata "
                          "(steps, updates, z; its time was wall time on a shared machine) "
@@ -357,9 +379,10 @@ def main(argv=None) -> int:
     repo = Path.cwd()
     a.out.mkdir(parents=True, exist_ok=True)
     old_src = a.old_src or old_sources(repo, a.out / f"old_engine_{OLD_COMMIT}")
-    do_updates = a.updates or (a.jams is None and not a.old_5000_from_meta)
-    sizes = [int(s) for s in a.jams.split(",")] if a.jams else ([200, 800, 2000]
-                                                                 if not (a.updates or a.old_5000_from_meta) else [])
+    recording = bool(a.old_5000_from_meta or a.add)
+    do_updates = a.updates or (a.jams is None and not recording)
+    default_sizes = [] if a.updates or recording else [200, 800, 2000]
+    sizes = [int(s) for s in a.jams.split(",")] if a.jams else default_sizes
     section = {"old_commit": OLD_COMMIT, "machine": platform.platform(),
                "cpu_count": os.cpu_count(), "timing": "CPU (user + sys)"}
     if do_updates:
@@ -370,10 +393,13 @@ def main(argv=None) -> int:
         with tempfile.TemporaryDirectory() as tmp:
             which = tuple(a.which.split(","))
             jams([20], old_src, repo, Path(tmp), which)   # compiles the kernel caches
-            section["jams"] = jams(sizes, old_src, repo, Path(tmp), which)
-    if a.old_5000_from_meta:
-        section.setdefault("jams", []).append({"n": 5000, "old": old_5000_from_meta()})
-    merge(a.out / "bench.json", section)
+            jams(sizes, old_src, repo, Path(tmp), which,
+                 lambda row: merge(a.out / "bench.json", {**section, "jams": [row]}))
+    extra = [{"n": 5000, "old": old_5000_from_meta()}] if a.old_5000_from_meta else []
+    for spec in a.add or ():
+        extra.append(recorded(spec))
+    if extra:
+        merge(a.out / "bench.json", {**section, "jams": extra})
     log(f"wrote section 'engine' of {a.out / 'bench.json'}")
     return 0
 
