@@ -55,7 +55,8 @@ def detect_contacts(x, y, r, box: Box, margin: float):
 
 @kernel
 def detect_kernel(x, y, r, box, margin):
-    """The kernel of :func:`detect_contacts` (same arguments, validated)."""
+    """The kernel of :func:`detect_contacts`: x, y (n+4,) [R] body positions, r (n,) [R]
+    radii (float64, contiguous), box a Box record, margin [R]; the same results."""
     n = r.shape[0]
     width = box.width
     rmax = 0.0

@@ -80,7 +80,7 @@ def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True,
                              "configuration is not static (raise jamming.window or lower "
                              "jamming.velocity_tol)")
     if bodies.contacts is not None:  # start from the forces the dynamics ended with
-        rn, rt = warm_start(c.keys, *bodies.contacts)
+        rn, rt = warm_start(c.keys, bodies.contacts)
         rt[c.mu == 0.0] = 0.0
     else:
         rn = np.zeros(c.a.shape[0])

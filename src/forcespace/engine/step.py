@@ -24,10 +24,23 @@ from .records import (BodyArrays, Box, ContactForces, Contacts, Motion, StepSett
 from .streams import step_seed
 
 
+def warm_start(keys, previous: ContactForces):
+    """Forces rn, rt (Nc,) [sigma] for the contacts ``keys`` (Nc,) int64 (sorted
+    ascending) taken from ``previous`` (its keys sorted too) where a contact persists;
+    new contacts start at 0."""
+    keys = np.ascontiguousarray(keys, dtype=np.int64)
+    old = np.ascontiguousarray(previous.keys, dtype=np.int64)
+    if np.any(np.diff(keys) <= 0) or np.any(np.diff(old) <= 0):
+        raise ValueError("contact keys must be sorted ascending and unique")
+    return warm_start_kernel(keys, old, np.ascontiguousarray(previous.rn, dtype=float),
+                             np.ascontiguousarray(previous.rt, dtype=float))
+
+
 @kernel
-def warm_start(keys_new, keys_old, rn_old, rt_old):
+def warm_start_kernel(keys_new, keys_old, rn_old, rt_old):
     """Forces (Nc_new,) each of the previous step's contacts that persist: contacts are
-    matched by key (both key arrays sorted ascending); new contacts start at 0."""
+    matched by key (both key arrays (Nc,) int64 sorted ascending; rn_old, rt_old
+    [sigma]); new contacts start at 0."""
     m = keys_new.shape[0]
     rn = np.zeros(m)
     rt = np.zeros(m)
@@ -117,7 +130,7 @@ def steps_kernel(bodies, box, step, sweep, prev, nsteps, seed, step0):
     for s in range(nsteps):
         ints, floats = detect_kernel(x, y, r, box, step.margin)
         c = contacts_kernel(ints, floats, r, step.mu_disk, step.mu_wall)
-        rn, rt = warm_start(c.keys, keys, rn, rt)
+        rn, rt = warm_start_kernel(c.keys, keys, rn, rt)
         keys = c.keys
         moving = step.tol_moving > 0.0 and abs(vy[n + 1]) > step.moving_speed
         for i in range(nb):
