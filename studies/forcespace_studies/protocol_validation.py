@@ -40,7 +40,8 @@ from pathlib import Path
 import numpy as np
 
 REFERENCE = {"solver.max_sweeps": 1000, "solver.tolerance_moving": 0.0,
-             "solver.moving_speed": 0.0, "solver.relaxation_fallback": 0.5}
+             "solver.moving_speed": 0.0, "solver.max_sweeps_moving": 0,
+             "solver.relaxation_fallback": 0.5}
 QUANTITIES = (("z", "z"), ("phi", "packing fraction"), ("rattler_fraction", "rattler fraction"),
               ("dim_s_per_nc", "dim S / Nc"))
 

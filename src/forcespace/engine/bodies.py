@@ -160,7 +160,8 @@ def step_settings(scene: Scene, v0: float = 1.0) -> tuple[StepSettings, SweepSet
         margin=float(scene["solver.contact_margin"]), mu_disk=float(scene["physics.mu"]),
         mu_wall=float(scene["physics.plate_mu"]), rotation=bool(scene.rotation),
         tol_moving=float(scene["solver.tolerance_moving"]),
-        moving_speed=float(scene["solver.moving_speed"] * v0))
+        moving_speed=float(scene["solver.moving_speed"] * v0),
+        sweeps_moving=int(scene["solver.max_sweeps_moving"]))
     sweep = SweepSettings(
         dt=float(scene["solver.dt"]), tol=float(scene["solver.tolerance"]),
         max_sweeps=int(sweeps), relaxation=float(scene["solver.relaxation"]),

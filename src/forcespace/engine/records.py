@@ -138,7 +138,8 @@ class StepSettings(NamedTuple):
     """What a time step needs besides the solver settings: margin [R] (pairs closer than
     this gap are contacts), Coulomb coefficients mu_disk (disk-disk) and mu_wall
     (disk-wall), rotation (integrate disk rotation), tol_moving: the solver tolerance
-    while the top plate moves faster than ``moving_speed`` [R/T] (0: always ``tol``)."""
+    while the top plate moves faster than ``moving_speed`` [R/T] (0: always ``tol``),
+    sweeps_moving: the sweep cap then (0: ``max_sweeps``)."""
 
     margin: float
     mu_disk: float
@@ -146,6 +147,7 @@ class StepSettings(NamedTuple):
     rotation: bool
     tol_moving: float = 0.0
     moving_speed: float = 0.0
+    sweeps_moving: int = 0
 
 
 class StepStats(NamedTuple):

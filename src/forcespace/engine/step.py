@@ -139,16 +139,18 @@ def steps_kernel(bodies, box, step, sweep, prev, nsteps, seed, step0):
         velocities_kernel(c, rn, rt, motion, dt)
         settings = sweep
         if moving:     # the plate moved faster than moving_speed in the last step
-            settings = SweepSettings(dt, step.tol_moving, max_sweeps, sweep.relaxation,
+            cap = step.sweeps_moving if step.sweeps_moving > 0 else max_sweeps
+            settings = SweepSettings(dt, step.tol_moving, cap, sweep.relaxation,
                                      sweep.block, sweep.overlap_correction,
-                                     sweep.overlap_slop, sweep.relax_until)
+                                     sweep.overlap_slop,
+                                     sweep.relax_until if step.sweeps_moving <= 0 else -1)
         st = solve_kernel(c, motion, rn, rt, settings, step_seed(seed, step0 + s))
         sweeps_total += st.sweeps
         sweeps_max = max(sweeps_max, st.sweeps)
         max_rel = max(max_rel, st.relative_change)
         n_norm += st.normal_updates
         n_tang += st.tangential_updates
-        if st.sweeps >= max_sweeps and st.relative_change > settings.tol:
+        if st.sweeps >= settings.max_sweeps and st.relative_change > settings.tol:
             capped += 1
         a, b = c.a, c.b
         # speeds (for the log) of the disks that touch something or feel a body
@@ -219,7 +221,8 @@ def run_steps(bodies, box: Box, step: StepSettings, sweep: SweepSettings,
     box = Box(float(box.width), bool(box.periodic), bool(box.has_bottom), bool(box.has_top),
               bool(box.has_sides))
     step = StepSettings(float(step.margin), float(step.mu_disk), float(step.mu_wall),
-                        bool(step.rotation), float(step.tol_moving), float(step.moving_speed))
+                        bool(step.rotation), float(step.tol_moving), float(step.moving_speed),
+                        int(step.sweeps_moving))
     sweep = SweepSettings(float(sweep.dt), float(sweep.tol), int(sweep.max_sweeps),
                           float(sweep.relaxation), int(sweep.block),
                           float(sweep.overlap_correction), float(sweep.overlap_slop),

@@ -160,6 +160,9 @@ SCHEMA: dict[str, Key] = {
                                "top-plate speed, relative to sqrt(F0 rbar/mbar) as "
                                "jamming.velocity_tol, above which solver.tolerance_moving "
                                "applies"),
+    "solver.max_sweeps_moving": Key(int, 0, _int_at_least(0),
+                                    "sweep cap per step while solver.tolerance_moving applies "
+                                    "(0: solver.max_sweeps)"),
     "solver.relaxation_fallback": Key(float, 0.5, lambda v, _: None if 0 < v <= 1 else
                                       "must be in (0, 1]",
                                       "fraction of solver.max_sweeps after which an "
