@@ -10,8 +10,9 @@ boxes scaled by ``--n N --scale-box``) and each packing gives:
 * z: the coordination of the non-rattlers (``Packing.coordination``);
 * packing fraction (``Packing.packing_fraction``);
 * rattler fraction (rattlers / n);
-* dim S / Nc of the paper's slice (height 28 sqrt(n / 200) R): ``ForceSpace().compute(
-  slice_problem(p, h)).dim`` over the slice's unknown contacts.
+* dim S / Nc of the paper's slice (height 28 sqrt(n / 200) R): dim S as
+  ``ForceSpace().compute(slice_problem(p, h)).dim`` computes it (:func:`slice_dim`), over
+  the slice's unknown contacts Nc.
 
 Per size and quantity: mean +- standard error over seeds for each protocol, Welch's
 t-test on the means and the two-sample Kolmogorov-Smirnov test (scipy), both p-values
@@ -46,13 +47,27 @@ QUANTITIES = (("z", "z"), ("phi", "packing fraction"), ("rattler_fraction", "rat
               ("dim_s_per_nc", "dim S / Nc"))
 
 
+def slice_dim(prob) -> int:
+    """dim S of a statics problem by the steps of ``ForceSpace().compute(prob).dim``
+    (problem scaled to <Fn> = 1, implicit equalities by LP, the rank of [A; fixed
+    columns; implicit rows]) without the rest of the analysis: its varying-contact LPs
+    (one pair per undecided column) took over 10 CPU minutes on some 800-disk slices."""
+    from forcespace.linalg import affine_hull
+    from forcespace.space.force_space import implicit_equalities
+    from forcespace.space.lp import eq_system, unit_problem
+    P, scale = unit_problem(prob)
+    G, _owner, _kind = P.inequalities()
+    Eq, rhs = eq_system(P, G[implicit_equalities(P)])
+    N, _xa, _rank = affine_hull(Eq, rhs, prob.x_jammed / scale)
+    return int(N.shape[1])
+
+
 def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: float = 0.1) -> dict:
     """Jam one packing and measure it (runs in a worker process)."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from forcespace.engine.protocol import build_packing
     from forcespace.model.problem import slice_problem
     from forcespace.model.scene import load_scene
-    from forcespace.space.force_space import ForceSpace
     scene, _ = load_scene(scene_file).scaled_to(n)
     over = {"physics.mu": mu, "scene.seed": seed}
     if protocol == "reference":
@@ -63,15 +78,15 @@ def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: fl
     cpu = time.process_time() - t0
     h = 28.0 * math.sqrt(n / 200.0)
     prob = slice_problem(p, h)
-    an = ForceSpace().compute(prob)
+    dim = slice_dim(prob)
     m = p.meta
     return {"protocol": protocol, "n": n, "seed": seed, "mu": mu, "cpu_s": cpu,
             "steps": int(m["steps"]), "sweeps": int(m["sweeps_total"]),
             "updates": int(m["normal_updates"] + m["tangential_updates"]),
             "z": float(p.coordination()), "phi": float(p.packing_fraction()),
             "rattler_fraction": float(p.rattlers().mean()),
-            "dim_s": int(an.dim), "slice_contacts": int(prob.n_contacts),
-            "dim_s_per_nc": an.dim / prob.n_contacts if prob.n_contacts else float("nan")}
+            "dim_s": int(dim), "slice_contacts": int(prob.n_contacts),
+            "dim_s_per_nc": dim / prob.n_contacts if prob.n_contacts else float("nan")}
 
 
 def run(sizes, seeds, jobs: int, path: Path, protocols=("reference", "candidate"),
