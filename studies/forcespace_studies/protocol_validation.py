@@ -108,13 +108,14 @@ def run(sizes, seeds, jobs: int, path: Path, protocols=("reference", "candidate"
     return rows
 
 
-def table(rows, sizes) -> str:
+def table(rows, sizes, candidate: str = "candidate") -> str:
+    """Markdown table: reference against the rows labelled ``candidate``."""
     from scipy import stats
     out = ["| n | quantity | reference (mean +- s.e.) | candidate (mean +- s.e.) | "
            "difference / s.e. | Welch t p | KS p |", "|---|---|---|---|---|---|---|"]
     for n in sizes:
         ref = [r for r in rows if r["n"] == n and r["protocol"] == "reference"]
-        new = [r for r in rows if r["n"] == n and r["protocol"] == "candidate"]
+        new = [r for r in rows if r["n"] == n and r["protocol"] == candidate]
         if len(ref) < 2 or len(new) < 2:
             continue
         for key, label in QUANTITIES + (("cpu_s", "CPU s"), ("steps", "steps"),
@@ -155,6 +156,8 @@ def main(argv=None) -> int:
             f"with n, seeds 1-{a.seeds}. Reference: paper_fast with {REFERENCE} (the protocol "
             f"of 938734f); candidate: paper_fast as shipped, {changed}.\n\n"
             + table(rows, sizes) + "\n")
+    for label in sorted({r["protocol"] for r in rows} - {"reference", "candidate"}):
+        text += f"\n## Tried, not shipped: {label}\n\n" + table(rows, sizes, label) + "\n"
     (a.out / "protocol_validation.md").write_text(text)
     print(text)
     return 0
