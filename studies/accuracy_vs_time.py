@@ -16,12 +16,8 @@ dropped, see ``forcespace_adapters.distance``). Against wall time [s]:
    time = scene set-up, ramp and stepping (the per-step load assignment in Python
    included, taking the snapshots excluded), no convergence checks.
 
-Then our NLGS against pymunk per contact-iteration, frictionless and frictional
-(mu = 0.1), on the mu = 0.1 packing and on 25 copies of it along periodic x (5000
-disks): NLGS sweeps (``bench.nlgs_timer``) and pymunk ``space.step`` on the jammed
-configuration, interleaved, best of several. ``space.step`` includes collision
-detection: its solver share is (t(I) - t(1)) / (I - 1) per iteration, I = 100
-(the raw rate, collision detection included, is reported too).
+(NLGS against pymunk per contact-iteration moved to ``python -m
+forcespace_studies.bench_engine``: CPU time, the old code beside, interleaved.)
 
 Outputs: OUT/accuracy_vs_time.{png,pdf,md}, key "accuracy_vs_time" of OUT/bench.json
 (read-modify-write). The full run also copies figure and table to
@@ -48,7 +44,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench import nlgs_timer, renumbered, tile  # noqa: E402
+from bench import tile  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "out"
@@ -221,74 +217,6 @@ def accuracy_study(name, cfg, work) -> dict:
     return st
 
 
-def contact_iteration_rates(p, mu, iterations=100, repeats=5, work=6e5) -> dict:
-    """NLGS contact updates per second against pymunk contact-iterations per second on the
-    jammed configuration of ``p`` (friction ``mu`` for both), measured interleaved.
-
-    pymunk: ``space.step`` on the scene of the load-controlled plate problem after 20
-    warm-up steps; each step timed alone (the loads are set between steps, untimed).
-    Solver rate = contacts (I - 1) / (t(I) - t(1)); raw rate = contacts I / t(I).
-    ``work`` ~ contact updates per timed sample.
-    """
-    from forcespace_adapters.problem import soft_problem
-    from forcespace_adapters.pymunk_sim import PymunkOptions, PymunkScene
-    q = replace(p, mu=mu)
-    sweeps = max(10, int(work / q.n_contacts))
-    nlgs = nlgs_timer(q, mu, sweeps)
-    fast = nlgs_timer(renumbered(q), mu, sweeps, block=64)     # paper_fast.toml's sweep
-    sc = PymunkScene(soft_problem(q, top="plate"), PymunkOptions(iterations=iterations))
-    sc.step(20)
-    n_pym = len(sc.contacts())
-    steps = max(2, int(work / (n_pym * iterations)))
-
-    def pym(it):
-        sc.space.iterations = it
-        total = 0.0
-        for _ in range(steps):
-            sc.apply_loads()
-            t0 = time.perf_counter()
-            sc.space.step(sc.dt)
-            total += time.perf_counter() - t0
-        return total / steps
-
-    best = {"nlgs": math.inf, "fast": math.inf, "pym": math.inf, "pym1": math.inf}
-    load0 = os.getloadavg()
-    for _ in range(repeats):
-        best["nlgs"] = min(best["nlgs"], nlgs())
-        best["fast"] = min(best["fast"], fast())
-        best["pym"] = min(best["pym"], pym(iterations))
-        best["pym1"] = min(best["pym1"], pym(1))
-    nlgs_rate = q.n_contacts * sweeps / best["nlgs"]
-    fast_rate = q.n_contacts * sweeps / best["fast"]
-    diff = best["pym"] - best["pym1"]          # <= 0 only when timing noise dominates
-    solver = n_pym * (iterations - 1) / diff if diff > 0 else math.nan
-    raw = n_pym * iterations / best["pym"]
-    out = {"n_disks": q.n_disks, "mu": mu, "nlgs_contacts": q.n_contacts, "nlgs_sweeps": sweeps,
-           "pymunk_contacts": n_pym, "pymunk_iterations": iterations,
-           "pymunk_twins": len(sc.twins), "nlgs_updates_per_s": nlgs_rate,
-           "pymunk_step_s": best["pym"], "pymunk_step_1it_s": best["pym1"],
-           "pymunk_solver_contact_iterations_per_s": solver,
-           "pymunk_raw_contact_iterations_per_s": raw,
-           "ratio_nlgs_over_pymunk_solver": nlgs_rate / solver,
-           "ratio_nlgs_over_pymunk_raw": nlgs_rate / raw,
-           "nlgs_fast_sweep_updates_per_s": fast_rate,
-           "ratio_fast_sweep_over_pymunk_solver": fast_rate / solver,
-           "ratio_fast_sweep_over_pymunk_raw": fast_rate / raw,
-           "loadavg_before": load0, "loadavg_after": os.getloadavg()}
-    log(f"    n={q.n_disks:5d} mu={mu:g}: NLGS {nlgs_rate:.3g} updates/s, pymunk solver "
-        f"{solver:.3g} ({raw:.3g} raw) contact-iterations/s -> ratio {nlgs_rate / solver:.2f} "
-        f"({nlgs_rate / raw:.2f} raw); fast sweep {fast_rate:.3g} -> {fast_rate / solver:.2f} "
-        f"({fast_rate / raw:.2f} raw); load {load0[0]:.1f}")
-    return out
-
-
-def per_iteration_study(cfg) -> list:
-    from forcespace.model.packing import Packing
-    p = read_packing(HERE / "packings" / "paper_mu0.1.h5")
-    return [contact_iteration_rates(tile(p, k) if k > 1 else p, mu, repeats=cfg["repeats"])
-            for k in cfg["tiles"] for mu in (0.0, 0.1)]
-
-
 # ----------------------------------------------------------------------------------------
 def _json_ready(v):
     if isinstance(v, dict):
@@ -335,21 +263,6 @@ def table_md(res: dict) -> str:
                      for v in row.values()]
             lines.append(f"| {code} | " + " | ".join(cells) + " |")
         lines.append("")
-    lines += ["## NLGS vs pymunk per contact-iteration", "",
-              "NLGS: contact updates/s of `nlgs_solve` sweeps. pymunk: contact-iterations/s "
-              "of `space.step`, solver only = contacts (I-1)/(t(I)-t(1)) at I = 100, raw = "
-              "contacts I/t(I) (collision detection included). Interleaved, best of "
-              f"{res['repeats']}.", "",
-              "| disks | mu | NLGS contacts | pymunk contacts | NLGS [1/s] | pymunk solver [1/s] "
-              "| pymunk raw [1/s] | ratio (solver) | ratio (raw) | load avg |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
-    for r in res["per_iteration"]:
-        lines.append(
-            f"| {r['n_disks']} | {r['mu']:g} | {r['nlgs_contacts']} | {r['pymunk_contacts']} | "
-            f"{r['nlgs_updates_per_s']:.3g} | {_num(r['pymunk_solver_contact_iterations_per_s'], '.3g')} | "
-            f"{r['pymunk_raw_contact_iterations_per_s']:.3g} | "
-            f"{_num(r['ratio_nlgs_over_pymunk_solver'], '.2f')} | {r['ratio_nlgs_over_pymunk_raw']:.2f} | "
-            f"{r['loadavg_before'][0]:.1f} |")
     return "\n".join(lines) + "\n"
 
 
@@ -446,8 +359,6 @@ def main(argv=None) -> int:
     log("accuracy vs wall time ...")
     for name in cfg["packings"]:
         res["packings"][name] = accuracy_study(name, cfg, out / "accuracy_vs_time_work")
-    log("NLGS vs pymunk per contact-iteration ...")
-    res["per_iteration"] = per_iteration_study(cfg)
     res["loadavg_end"] = os.getloadavg()
     res["wall_s"] = time.perf_counter() - t0
     merge_json(out / "bench.json", "accuracy_vs_time", res)

@@ -1,10 +1,8 @@
 """Benchmarks of the reference engine (``make bench``); figures go to studies/out/bench.*.
 
 Measured, not asserted:
-1. Gauss-Seidel contact updates per second, on the 200-disk paper packing and a
-   2000-disk packing (the same packing tiled 10 times along periodic x, so the
-   contact structure is that of a real jammed packing), frictionless and
-   frictional update paths side by side.
+1. (Contact updates per second: moved to ``python -m forcespace_studies.bench_engine``,
+   CPU time, old code and pymunk interleaved.)
 2. Wall time to jam ``inputs/paper.toml`` (mu = 0 and mu = 0.1).
 3. What accuracy costs in time: equilibrium residual of the static solve
    (cold start, zero forces) against sweeps and seconds, and the compression's
@@ -26,10 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from forcespace import __version__
-from forcespace.model.walls import N_WALL_SLOTS, SLOT_TOP, kernel_body_index
 from forcespace.plot import save_figure
 from forcespace.engine.protocol import build_packing, make_bodies, row_order, static_solve
-from forcespace.engine.nlgs import add_contact_velocities, effective_masses, nlgs_solve
 from forcespace.model.packing import Packing
 from forcespace.model.scene import load_scene
 
@@ -58,23 +54,6 @@ def tile(p: Packing, k: int) -> Packing:
                    b=np.concatenate(b_blocks), image=np.concatenate(img_blocks), **fields)
 
 
-def kernel_arrays(p: Packing, rotation: bool):
-    """Statics kernel arrays of a packing (walls fixed, top plate movable)."""
-    n = p.n_disks
-    nb = n + N_WALL_SLOTS
-    a, b = kernel_body_index(p.a, n), kernel_body_index(p.b, n)
-    inv_m = np.zeros(nb)
-    inv_m[:n] = 1.0 / p.mass
-    inv_my = inv_m.copy()
-    inv_my[n + SLOT_TOP] = 0.1
-    inv_i = np.zeros(nb)
-    if rotation:
-        inv_i[:n] = 1.0 / (0.5 * p.mass * p.r**2)
-    ra = np.where(p.a >= 0, p.r[np.maximum(p.a, 0)], 0.0)
-    rb = np.where(p.b >= 0, p.r[np.maximum(p.b, 0)], 0.0)
-    return a, b, p.normal[:, 0].copy(), p.normal[:, 1].copy(), ra, rb, inv_m, inv_my, inv_i
-
-
 def renumbered(p: Packing) -> Packing:
     """The packing with its disks numbered row by row (rows one largest diameter high, x
     increasing) and its contacts sorted by their lower disk index: the memory order the
@@ -91,37 +70,6 @@ def renumbered(p: Packing) -> Packing:
     return replace(p, x=p.x[perm], y=p.y[perm], r=p.r[perm], density=dens, a=a[order],
                    b=b[order], **{k: getattr(p, k)[order]
                                   for k in ("normal", "point", "image", "gap", "fn", "ft")})
-
-
-def nlgs_timer(p: Packing, mu: float, sweeps: int, block: int = 0):
-    """A function () -> seconds of ``sweeps`` NLGS sweeps on the packing's contacts, each
-    call from the packing's forces with a new sweep-order seed (compiled and run once here).
-    ``block``: the sweep order of ``nlgs_solve`` (0: single contacts shuffled; B: runs of
-    B contacts in list order, shuffled -- pass a :func:`renumbered` packing)."""
-    a, b, nx, ny, ra, rb, imx, imy, ii = kernel_arrays(p, rotation=mu > 0)
-    mn, mt = effective_masses(a, b, nx, ny, ra, rb, imx, imy, ii)
-    muc = np.full(a.size, mu)
-    gap = np.zeros(a.size)
-    calls = itertools.count()
-
-    def run() -> float:
-        rn, rt = p.fn.copy(), p.ft.copy() * (mu > 0)
-        vx, vy, w = (np.zeros(imx.size) for _ in range(3))
-        vy[p.n_disks + 1] = -p.top_force * imy[p.n_disks + 1]
-        add_contact_velocities(a, b, nx, ny, ra, rb, rn, rt, imx, imy, ii, 1.0, vx, vy, w)
-        t0 = time.perf_counter()
-        nlgs_solve(a, b, nx, ny, ra, rb, gap, muc, mn, mt, rn, rt, vx, vy, w, imx, imy, ii,
-                   1.0, 0.0, sweeps, next(calls), 0.0, 0.0, 1.0, block)
-        return time.perf_counter() - t0
-
-    run()  # first run compiles / warms caches
-    return run
-
-
-def updates_per_second(p: Packing, mu: float, sweeps: int, repeats: int = 3) -> float:
-    """Best-of-``repeats`` contact updates per second of ``sweeps`` NLGS sweeps."""
-    run = nlgs_timer(p, mu, sweeps)
-    return p.n_contacts * sweeps / min(run() for _ in range(repeats))
 
 
 def static_convergence(scene, packing: Packing, seed=1):
@@ -334,20 +282,6 @@ def main():
     print("jamming: the paper's sweep against the fast sweep (inputs/paper_fast.toml) ...",
           flush=True)
     results["jam_fast_vs_paper"] = jam_fast_vs_paper()
-
-    print("contact updates per second ...", flush=True)
-    rates = {}
-    for label, p in (("200", packings[0.1]), ("2000", tile(packings[0.1], 10))):
-        for mu in (0.0, 0.1):
-            rate = updates_per_second(p, mu, sweeps=200 if label == "200" else 40)
-            rates[f"n={label}, mu={mu}"] = rate
-            print(f"  n={p.n_disks}, Nc={p.n_contacts}, mu={mu}: {rate:.3g} updates/s",
-                  flush=True)
-    results["updates_per_second"] = rates
-    results["ratios"] = {
-        "frictional/frictionless (n=200)": rates["n=200, mu=0.1"] / rates["n=200, mu=0.0"],
-        "n=2000/n=200 (mu=0.1)": rates["n=2000, mu=0.1"] / rates["n=200, mu=0.1"],
-    }
 
     print("accuracy against time ...", flush=True)
     acc = {}

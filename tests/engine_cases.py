@@ -2,8 +2,9 @@
 import numpy as np
 
 from forcespace.model.walls import N_WALL_SLOTS
-from forcespace.engine.step import ContactState, StepParams, run_steps
-from forcespace.engine.protocol import Bodies
+from forcespace.engine.bodies import Bodies
+from forcespace.engine.records import Box, ContactForces, StepSettings, SweepSettings
+from forcespace.engine.step import run_steps
 
 
 def free_bodies(x, y, r, vx=None, vy=None, fixed=(), density=1.0, rotation=True,
@@ -37,10 +38,11 @@ def free_bodies(x, y, r, vx=None, vy=None, fixed=(), density=1.0, rotation=True,
 def step(bodies, nsteps, dt=0.01, width=100.0, periodic=False, mu=0.0, margin=0.5,
          tol=1e-12, max_sweeps=1000, seed=1, state=None, relaxation=1.0, sweep_block=0):
     """Advance free disks (no walls) ``nsteps``; returns (keys, rn, rt, stats)."""
-    params = StepParams(width=width, periodic=periodic, has_bottom=False, has_top=False,
-                        has_sides=False, margin=margin, dt=dt, tol=tol, max_sweeps=max_sweeps,
-                        mu_disk=mu, mu_wall=0.0, rotation=bool(bodies.inv_i.any()),
-                        relaxation=relaxation, sweep_block=sweep_block)
-    contacts = ContactState(*state) if state is not None else ContactState.empty()
-    (keys, rn, rt), stats = run_steps(bodies, params, contacts, nsteps, seed)
+    box = Box(width, periodic, has_bottom=False, has_top=False, has_sides=False)
+    settings = StepSettings(margin=margin, mu_disk=mu, mu_wall=0.0,
+                            rotation=bool(bodies.inv_i.any()))
+    sweep = SweepSettings(dt=dt, tol=tol, max_sweeps=max_sweeps, relaxation=relaxation,
+                          block=sweep_block)
+    contacts = ContactForces(*state) if state is not None else ContactForces.empty()
+    (keys, rn, rt), stats = run_steps(bodies, box, settings, sweep, contacts, nsteps, seed)
     return keys, rn, rt, stats

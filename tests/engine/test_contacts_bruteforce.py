@@ -4,6 +4,7 @@ import pytest
 
 from forcespace.model.walls import N_WALL_SLOTS
 from forcespace.engine.contacts import detect_contacts
+from forcespace.engine.records import Box
 
 
 def brute_force(x, y, r, width, periodic, margin, bottom=None, top=None, sides=False):
@@ -50,7 +51,7 @@ def test_cell_list_finds_exactly_the_pairs_of_an_all_pairs_search(seed):
     bottom, top = float(y.min() - rmin), float(y.max() + rmin)
     X = np.concatenate([x, np.zeros(N_WALL_SLOTS)])
     Y = np.concatenate([y, [bottom, top, 0.0, 0.0]])
-    ints, floats = detect_contacts(X, Y, r, n, width, periodic, True, True, not periodic,
+    ints, floats = detect_contacts(X, Y, r, Box(width, periodic, True, True, not periodic),
                                    margin)
     want = brute_force(x, y, r, width, periodic, margin, bottom, top, sides=not periodic)
     got = {tuple(int(v) for v in row): g for row, g in zip(ints, floats[:, 2])}

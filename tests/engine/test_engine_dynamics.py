@@ -4,6 +4,7 @@ import pytest
 
 from engine_cases import free_bodies, step
 from forcespace.engine.contacts import detect_contacts
+from forcespace.engine.records import Box
 
 
 # the paper's sweep (fresh random order, plain Gauss-Seidel) and the fast one (runs of
@@ -35,8 +36,8 @@ def test_disk_in_groove_with_friction_is_in_equilibrium_and_symmetric(sweep):
     bodies = free_bodies([0.0, -1.2, 1.2], [1.7, 0.0, 0.0], [1, 1, 1], fixed=(1, 2),
                          gravity=g)
     keys, rn, rt, stats = step(bodies, 400, dt=0.01, mu=mu, **sweep)
-    ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r, 3, 100.0, False, False,
-                                   False, False, 0.5)
+    ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r,
+                                   Box(100.0, False, False, False, False), 0.5)
     n = floats[:, :2]
     t = np.column_stack([-n[:, 1], n[:, 0]])
     on_disk0 = -(rn[:, None] * n + rt[:, None] * t).sum(0)  # disk 0 is body a of both
@@ -66,8 +67,8 @@ def test_perfectly_inelastic_head_on_collision_conserves_momentum():
 def test_collision_across_the_periodic_boundary():
     L = 10.0
     bodies = free_bodies([0.4, L - 1.7], [0.0, 0.0], [1.0, 1.0], vx=[-1.0, 1.0])
-    ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r, 2, L, True, False, False,
-                                   False, 0.5)
+    ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r,
+                                   Box(L, True, False, False, False), 0.5)
     assert len(ints) == 1
     a, b, image = ints[0]
     assert (a, b) == (0, 1) and image == -1  # disk 1 seen at x - L, left of disk 0
@@ -82,6 +83,6 @@ def test_collision_across_the_periodic_boundary():
 
 def test_no_periodic_image_contacts_without_periodicity():
     bodies = free_bodies([0.4, 8.3], [0.0, 0.0], [1.0, 1.0])
-    ints, _ = detect_contacts(bodies.x, bodies.y, bodies.r, 2, 10.0, False, False, False,
-                              False, 0.5)
+    ints, _ = detect_contacts(bodies.x, bodies.y, bodies.r,
+                              Box(10.0, False, False, False, False), 0.5)
     assert len(ints) == 0

@@ -143,7 +143,7 @@ def test_interrupted_compression_resumes_bit_identically(tmp_path):
     from forcespace.errors import NumericalError
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
     fresh = build_packing(scene, show_progress=False)
-    ck = tmp_path / "p.h5.checkpoint.npz"
+    ck = tmp_path / "p.h5.checkpoint.h5"
     with pytest.raises(NumericalError, match="resumes from"):
         build_packing(scene.with_overrides(**{"jamming.max_steps": 600}), show_progress=False,
                       checkpoint=ck)
@@ -159,7 +159,7 @@ def test_interrupted_compression_resumes_bit_identically(tmp_path):
 def test_checkpoint_of_another_scene_is_refused(tmp_path):
     from forcespace.errors import InputError, NumericalError
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
-    ck = tmp_path / "c.npz"
+    ck = tmp_path / "c.h5"
     with pytest.raises(NumericalError):
         build_packing(scene.with_overrides(**{"jamming.max_steps": 200}), show_progress=False,
                       checkpoint=ck)
@@ -190,3 +190,152 @@ def test_hard_cases_jam_to_a_finite_static_state(overrides):
     assert s["max_overlap"] <= 1e-6
     assert (np.abs(p.ft) <= np.where((p.a < 0) | (p.b < 0), p.plate_mu, p.mu) * p.fn
             * (1 + 1e-12) + 1e-300).all()
+
+
+class _InterruptAfter:
+    """An interrupt flag that turns on after ``calls`` checks of ``requested``."""
+
+    def __init__(self, calls):
+        self.calls = calls
+
+    @property
+    def requested(self):
+        self.calls -= 1
+        return self.calls < 0
+
+    def check(self, message=""):
+        from forcespace.engine.interrupts import Interrupted
+        if self.requested:
+            raise Interrupted(message)
+
+
+def test_an_interrupt_saves_a_checkpoint_the_next_run_resumes_bit_identically(tmp_path):
+    from forcespace.engine import compress as compress_module
+    from forcespace.engine.interrupts import Interrupted
+    from forcespace.engine.protocol import start_bodies
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
+    fresh = build_packing(scene, show_progress=False)
+    ck = tmp_path / "p.h5.checkpoint.h5"
+    bodies = start_bodies(scene)
+    with pytest.raises(Interrupted, match="resumes from"):
+        compress_module.compress(scene, bodies, scene["scene.seed"], show_progress=False,
+                                 checkpoint=ck, interrupt=_InterruptAfter(8))
+    assert ck.exists()
+    resumed = build_packing(scene, show_progress=False, checkpoint=ck)
+    assert not ck.exists()
+    np.testing.assert_array_equal(resumed.x, fresh.x)
+    np.testing.assert_array_equal(resumed.fn, fresh.fn)
+    np.testing.assert_array_equal(resumed.ft, fresh.ft)
+    assert resumed.meta["steps"] == fresh.meta["steps"]
+    assert resumed.meta["sweeps_total"] == fresh.meta["sweeps_total"]
+
+
+def test_a_jammed_checkpoint_resumes_at_the_static_solve(tmp_path):
+    from forcespace.engine import compress as compress_module
+    from forcespace.engine.protocol import start_bodies
+    from forcespace.io.checkpoint import read_checkpoint
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
+    fresh = build_packing(scene, show_progress=False)
+    ck = tmp_path / "c.h5"
+    compress_module.compress(scene, start_bodies(scene), scene["scene.seed"],
+                             show_progress=False, checkpoint=ck)
+    state = read_checkpoint(ck, compress_module.scene_identity(scene))
+    assert state["phase"] == "jammed" and state["steps"] == fresh.meta["steps"]
+    resumed = build_packing(scene, show_progress=False, checkpoint=ck)
+    np.testing.assert_array_equal(resumed.fn, fresh.fn)
+    assert not ck.exists()
+
+
+@pytest.mark.parametrize("content", [b"garbage, not HDF5", b""])
+def test_a_garbage_checkpoint_is_one_line_naming_the_file(tmp_path, capsys, content):
+    from forcespace.cli import main
+    scene = tmp_path / "s.toml"
+    scene.write_text("[disks]\nn = 12\n[box]\nwidth = 20.0\n")
+    out = tmp_path / "p.h5"
+    ck = tmp_path / "p.h5.checkpoint.h5"
+    ck.write_bytes(content)
+    assert main(["pack", str(scene), "-o", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(ck) in err[0] and "Traceback" not in err[0]
+    assert not out.exists()
+
+
+def test_a_foreign_hdf5_file_as_checkpoint_is_refused(tmp_path):
+    from forcespace.errors import InputError
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 12})
+    p = build_packing(scene.with_overrides(**{"disks.n": 10}), show_progress=False)
+    ck = tmp_path / "c.h5"
+    write_packing(p, ck)                  # a packing file is not a checkpoint
+    with pytest.raises(InputError, match="file_kind"):
+        build_packing(scene, show_progress=False, checkpoint=ck)
+
+
+def test_sigint_during_pack_exits_130_with_one_line_and_a_checkpoint(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+    scene = tmp_path / "s.toml"     # never at rest: the run goes on until interrupted
+    scene.write_text("[disks]\nn = 30\n[box]\nwidth = 20.0\n[jamming]\nvelocity_tol = 1e-30\n")
+    out = tmp_path / "p.h5"
+    proc = subprocess.Popen([sys.executable, "-c", "import sys; from forcespace.cli import "
+                             f"main; sys.exit(main(['pack', {str(scene)!r}, '-o', "
+                             f"{str(out)!r}]))"], stderr=subprocess.PIPE, text=True)
+    seen = ""
+    while "compressing" not in seen:                # the compression has started
+        seen += proc.stderr.read(1)
+        assert proc.poll() is None, seen
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    err = seen + proc.stderr.read()
+    assert proc.wait(timeout=60) == 130
+    lines = [ln for ln in err.replace("\r", "\n").splitlines() if ln.strip()
+             and not ln.startswith("compressing")]
+    assert len(lines) == 1 and lines[0].startswith("interrupted"), err[-2000:]
+    ck = tmp_path / "p.h5.checkpoint.h5"
+    assert "resumes from" in lines[0] and str(ck) in lines[0]
+    assert ck.exists() and not out.exists()
+
+
+def test_a_plate_too_light_for_the_step_is_refused_before_any_work(tmp_path, capsys):
+    # top_mass = 1e-6: the plate overruns the contact margin between steps and the
+    # packing kept overlaps of 4.5e-3 R (22 000 x the slop) with exit 0
+    from forcespace.cli import main
+    scene = tmp_path / "s.toml"
+    scene.write_text(QUICK.read_text().replace("top_mass = 10.0", "top_mass = 1e-6"))
+    assert "top_mass = 1e-6" in scene.read_text()
+    assert main(["pack", str(scene), "-o", str(tmp_path / "p.h5"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "plates.top_mass" in err[0] and str(scene) in err[0]
+    # dt^2 / top_mass: the bound sits at the contact margin (0.05^2 / 0.1 = 0.025)
+    ok = load_scene(QUICK).with_overrides(**{"plates.top_mass": 0.026, "disks.n": 12})
+    from forcespace.engine.bodies import check_scene
+    check_scene(ok)
+    with pytest.raises(Exception, match="plates.top_mass"):
+        check_scene(ok.with_overrides(**{"plates.top_mass": 0.024}))
+
+
+def test_a_packing_that_keeps_overlaps_above_the_bound_is_a_non_convergence(quick):
+    from forcespace.engine.protocol import check_overlap
+    from forcespace.errors import NumericalError
+    scene = load_scene(QUICK)
+    check_overlap(scene, quick)            # 1.9e-7 R: within the default 1e-4 R
+    worst = quick.max_overlap()
+    assert 0 < worst < scene["jamming.max_overlap"]
+    with pytest.raises(NumericalError, match="overlap of"):
+        check_overlap(scene.with_overrides(**{"jamming.max_overlap": 0.5 * worst}), quick)
+
+
+def test_the_jam_progress_is_the_log_of_the_mean_speed_against_its_tolerance():
+    # issue 25: the bar counted to the 400 000-step cap (a 21-hour ETA for a 6 400-step
+    # jam); it now measures log(v_ref / v_mean) / log(v_ref / v_tol)
+    from forcespace.engine.compress import JamProgress, Run
+    run = Run(v_ref=1.0)
+    bar = JamProgress(1e-6, False, run, 400_000)
+    for steps, v, want in ((200, 1.0, 0.0), (400, 1e-3, 50.0), (600, 1e-2, 50.0),
+                           (800, 1e-5, 5 / 6 * 100), (1000, 1e-7, 100.0)):
+        run.steps = steps
+        run.log.append((steps, v, v, 10.0, 1e-7))
+        bar.update(run)
+        assert bar.done == pytest.approx(want)     # never moves back (v = 1e-2 after 1e-3)
+    bar.close()

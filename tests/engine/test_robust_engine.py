@@ -103,9 +103,31 @@ def test_overflowing_scene_values_are_refused(tmp_path, capsys, section, line, f
     assert field in capsys.readouterr().err
 
 
-def test_a_time_step_far_too_large_is_a_clear_non_convergence(tmp_path, capsys):
+def test_a_time_step_far_too_large_is_refused_or_a_clear_non_convergence(tmp_path, capsys):
     scene = tmp_path / "s.toml"
+    # under a plate: refused before any work (the plate would jump the contact margin)
     scene.write_text("[disks]\nn = 20\n[box]\nwidth = 20.0\n[solver]\ndt = 1e6\n")
+    assert main(["pack", str(scene), "-o", str(tmp_path / "p.h5"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "solver.dt" in err and "plates.top_mass" in err and "Traceback" not in err
+    # under gravity alone: the disks fall through the floor, a clear non-convergence
+    scene.write_text("[disks]\nn = 20\n[box]\nwidth = 20.0\n[solver]\ndt = 1e6\n"
+                     "[physics]\ngravity = 1.0\n[plates]\ntop = \"none\"\n")
     assert main(["pack", str(scene), "-o", str(tmp_path / "p.h5"), "--quiet"]) == 3
     err = capsys.readouterr().err
     assert "solver.dt" in err and "reduce" in err and "Traceback" not in err
+
+
+def test_a_radius_ratio_20_jam_shows_its_progress_and_ends_with_a_diagnosis(capsys):
+    # issue 21: a radius-ratio-1:20 scene gave no answer and no diagnosis within 90 s
+    # (its slow jam took minutes, the bar counted to the step cap and stopped refreshing)
+    from forcespace.errors import NumericalError
+    sc = validate({"disks.n": 100, "disks.radius_max": 20.0, "box.width": 200.0,
+                   "physics.mu": 0.1, "solver.dt": 0.05, "jamming.max_steps": 2000},
+                  "ratio20")
+    with pytest.raises(NumericalError) as err:
+        build_packing(sc, show_progress=True)
+    msg = str(err.value)
+    assert "not jammed after jamming.max_steps = 2000" in msg and "tolerance" in msg
+    shown = capsys.readouterr().err
+    assert "/2000 steps, v_mean/v_tol" in shown        # the bar measures the jam itself

@@ -11,7 +11,8 @@ import pytest
 
 from engine_cases import free_bodies
 from forcespace.model.walls import SLOT_BOTTOM
-from forcespace.engine.step import ContactState, StepParams, run_steps
+from forcespace.engine.records import Box, ContactForces, StepSettings, SweepSettings
+from forcespace.engine.step import run_steps
 
 
 def launch(v0, mu, g, r, dt, nsteps):
@@ -19,12 +20,12 @@ def launch(v0, mu, g, r, dt, nsteps):
     bodies.y[1 + SLOT_BOTTOM] = 0.0
     history = []
     tangential_updates = 0
-    contacts = ContactState.empty()
-    params = StepParams(width=100.0, periodic=False, has_bottom=True, has_top=False,
-                        has_sides=False, margin=0.1, dt=dt, tol=1e-13, max_sweeps=1000,
-                        mu_disk=0.0, mu_wall=mu, rotation=True)
+    contacts = ContactForces.empty()
+    box = Box(width=100.0, periodic=False, has_bottom=True, has_top=False, has_sides=False)
+    settings = StepSettings(margin=0.1, mu_disk=0.0, mu_wall=mu, rotation=True)
+    sweep = SweepSettings(dt=dt, tol=1e-13, max_sweeps=1000)
     for _ in range(nsteps):
-        contacts, stats = run_steps(bodies, params, contacts, 1, 7)
+        contacts, stats = run_steps(bodies, box, settings, sweep, contacts, 1, 7)
         history.append((bodies.vx[0], bodies.w[0], contacts.rn[0], contacts.rt[0]))
         tangential_updates += stats.tangential_updates
     return np.array(history), tangential_updates

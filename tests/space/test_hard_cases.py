@@ -112,10 +112,11 @@ def test_load_scale_1e_minus_12_and_1e12_give_the_same_packing():
 
 def test_gaps_of_1e_minus_14_are_contacts_of_the_packing():
     from forcespace.engine.contacts import detect_contacts
+    from forcespace.engine.records import Box
     r = np.array([1.0, 1.0])
     x = np.array([5.0, 5.0 + 2.0 + 1e-14, 0, 0, 0, 0])
     y = np.array([1.0, 1.0, 0.0, 0, 0, 0])
-    ints, floats = detect_contacts(x, y, r, 2, 20.0, False, True, False, False, 1e-6)
+    ints, floats = detect_contacts(x, y, r, Box(20.0, False, True, False, False), 1e-6)
     pairs = {tuple(row[:2]) for row in ints}
     assert (0, 1) in pairs
     gap = floats[[tuple(row[:2]) for row in ints].index((0, 1)), 2]

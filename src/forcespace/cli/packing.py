@@ -10,7 +10,7 @@ from ..errors import InputError
 def register(sub):
     p = sub.add_parser("pack", help="build a jammed packing from a scene file",
                        description="Jam a packing by the scene's protocol. The compression "
-                       "checkpoints to OUTPUT.checkpoint.npz every 30 s; rerunning the same "
+                       "checkpoints to OUTPUT.checkpoint.h5 every 30 s and on Ctrl-C; rerunning the same "
                        "command after a kill resumes from it.")
     p.add_argument("scene", help="scene file (TOML), e.g. inputs/paper.toml")
     p.add_argument("-o", "--output", required=True, help="packing file to write (HDF5)")
@@ -58,7 +58,7 @@ def cmd_pack(args) -> int:
         scene, scaled = scene.scaled_to(args.n)
     scene = scene.with_overrides(
         **{"physics.mu": args.mu, "scene.seed": args.seed, "disks.n": args.n})
-    checkpoint = Path(str(args.output) + ".checkpoint.npz")
+    checkpoint = Path(str(args.output) + ".checkpoint.h5")
     with output_lock(args.output):
         if checkpoint.exists() and not args.quiet:
             print(f"resuming from {checkpoint}")

@@ -1,29 +1,64 @@
 """Contact detection: cell list, minimum-image periodic x, plates and side walls.
 
-Pure numba kernels. Body layout of the kernels: disks 0..n-1, then four wall
-slots (:mod:`forcespace.model.walls`): bottom (n), top (n+1), left (n+2), right (n+3).
-The wall positions live in the body arrays too: ``y[n]`` is the lower plate's
-surface, ``y[n+1]`` the upper plate's surface; side walls are at x = 0 and
-x = width. Normals point from a to b: bottom->disk (0, 1), disk->top (0, 1),
-left->disk (1, 0), disk->right (1, 0).
+Pure numba kernels behind one public function, :func:`detect_contacts`. Body layout
+and contact convention: :mod:`forcespace.engine.records`. Normals point from a to b:
+bottom->disk (0, 1), disk->top (0, 1), left->disk (1, 0), disk->right (1, 0); the
+wall positions live in the body arrays (``y[n]`` lower plate, ``y[n+1]`` upper plate;
+side walls at x = 0 and x = width).
 """
 from __future__ import annotations
 
-import numpy as np
-from ..kernels import kernel
+from typing import NamedTuple
 
+import numpy as np
+
+from ..kernels import kernel
 from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_LEFT, SLOT_RIGHT, SLOT_TOP
+from .records import Box
+
+
+class Grid(NamedTuple):
+    """The cell list of :func:`detect_kernel`: ncx x ncy cells of width cx [R] (height
+    at least ``cell``), rows counted from ymin [R]; head (ncx*ncy,) first disk of a cell
+    (-1: none), nxt (n,) next disk of the same cell, cix, ciy (n,) a disk's cell."""
+
+    ncx: int
+    ncy: int
+    cx: float
+    ymin: float
+    head: np.ndarray
+    nxt: np.ndarray
+    cix: np.ndarray
+    ciy: np.ndarray
+
+
+def detect_contacts(x, y, r, box: Box, margin: float):
+    """All pairs (disk-disk and disk-wall) whose gap is below ``margin`` [R].
+
+    x, y: body positions [R], shape (n+4,) (the wall slots hold the plate heights);
+    r: disk radii (n,) [R]; ``box``: :class:`~forcespace.engine.records.Box`.
+    Returns ``ints`` (Nc, 3) int64 = (a, b, image) and ``floats`` (Nc, 3) = (nx, ny,
+    gap [R]), sorted by the key a*(n+4)+b. With periodic x, b's centre is at
+    x[b] + image*width (minimum image).
+    """
+    r = np.ascontiguousarray(r, dtype=float)
+    n = r.shape[0]
+    x = np.ascontiguousarray(x, dtype=float)
+    y = np.ascontiguousarray(y, dtype=float)
+    if x.shape != (n + N_WALL_SLOTS,) or y.shape != (n + N_WALL_SLOTS,):
+        raise ValueError(f"x and y must have shape (n+{N_WALL_SLOTS},) = ({n + N_WALL_SLOTS},)")
+    box = Box(float(box.width), bool(box.periodic), bool(box.has_bottom), bool(box.has_top),
+              bool(box.has_sides))
+    return detect_kernel(x, y, r, box, float(margin))
+
 
 
 @kernel
-def detect_contacts(x, y, r, n, width, periodic, has_bottom, has_top, has_sides, margin):
-    """All pairs (disk-disk and disk-wall) whose gap is below ``margin``.
-
-    x, y: body positions, shape (n+4,) (wall slots used for plate heights);
-    r: radii (n,). Returns ``ints`` (Nc, 3) = (a, b, image) and ``floats``
-    (Nc, 3) = (nx, ny, gap), sorted by the key a*(n+4)+b. For periodic x, b's
-    centre is at x[b] + image*width (minimum image).
-    """
+def detect_kernel(x, y, r, box, margin):
+    """The kernel of :func:`detect_contacts`: x, y (n+4,) [R] body positions, r (n,) [R]
+    radii (float64, contiguous), box a Box record, margin [R]; the same results."""
+    n = r.shape[0]
+    width = box.width
     rmax = 0.0
     ymin = np.inf
     ymax = -np.inf
@@ -61,8 +96,8 @@ def detect_contacts(x, y, r, n, width, periodic, has_bottom, has_top, has_sides,
     while True:
         buf_i = np.empty((capacity, 3), dtype=np.int64)
         buf_f = np.empty((capacity, 3))
-        count = _fill(x, y, r, n, width, periodic, has_bottom, has_top, has_sides, margin,
-                      ncx, ncy, cx, cell, ymin, head, nxt, cix, ciy, buf_i, buf_f)
+        count = _fill(x, y, r, box, margin, Grid(ncx, ncy, cx, ymin, head, nxt, cix, ciy),
+                      buf_i, buf_f)
         if count >= 0:
             break
         capacity *= 2
@@ -89,9 +124,13 @@ def _put(buf_i, buf_f, count, a, b, nx, ny, gap, image):
 
 
 @kernel
-def _fill(x, y, r, n, width, periodic, has_bottom, has_top, has_sides, margin,
-          ncx, ncy, cx, cell, ymin, head, nxt, cix, ciy, buf_i, buf_f):
-    """Write all contacts into the buffers; -1 if they do not fit."""
+def _fill(x, y, r, box, margin, grid, buf_i, buf_f):
+    """Write all contacts into the buffers (Nc rows of ``buf_i``, ``buf_f`` as returned by
+    :func:`detect_kernel`); the count, or -1 if they do not fit."""
+    n = r.shape[0]
+    width = box.width
+    periodic = box.periodic
+    ncx, ncy, head, nxt, cix, ciy = grid.ncx, grid.ncy, grid.head, grid.nxt, grid.cix, grid.ciy
     count = 0
     cols = np.empty(3, dtype=np.int64)
     for i in range(n):
@@ -130,17 +169,17 @@ def _fill(x, y, r, n, width, periodic, has_bottom, has_top, has_sides, margin,
                             count = _put(buf_i, buf_f, count, i, j,
                                          dx / dist, ddy / dist, g, image)
                     j = nxt[j]
-        if has_bottom:
+        if box.has_bottom:
             g = y[i] - r[i] - y[n + SLOT_BOTTOM]
             if g < margin:
                 count = _put(buf_i, buf_f, count, n + SLOT_BOTTOM, i,
                                             0.0, 1.0, g, 0)
-        if has_top:
+        if box.has_top:
             g = y[n + SLOT_TOP] - y[i] - r[i]
             if g < margin:
                 count = _put(buf_i, buf_f, count, i, n + SLOT_TOP,
                                             0.0, 1.0, g, 0)
-        if has_sides:
+        if box.has_sides:
             g = x[i] - r[i]
             if g < margin:
                 count = _put(buf_i, buf_f, count, n + SLOT_LEFT, i,

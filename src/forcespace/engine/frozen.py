@@ -9,70 +9,50 @@ when the network is admissible.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import NamedTuple
-
+from dataclasses import dataclass
 import numpy as np
 
 from ..errors import NumericalError
 from ..model.problem import StaticsProblem
-from .nlgs import add_contact_velocities, effective_masses, nlgs_solve
+from .nlgs import add_contact_velocities, solve
+from .records import Contacts, Motion, SweepSettings, SweepStats
+from .streams import chunk_seed
 
 
 @dataclass
 class FrozenContacts:
-    """Kernel arrays of a frozen contact network (see :mod:`forcespace.nlgs`).
+    """A frozen contact network as the solver sees it (dt = 1, gaps closed).
 
-    a, b (Nc,) int body indices; nx, ny (Nc,) unit normal a -> b; ra, rb (Nc,)
-    lever arms [R]; mu (Nc,) Coulomb coefficients; inv_mx, inv_my, inv_i (nb,)
-    inverse masses (zero for fixed bodies); v_ext: three arrays (nb,), the
-    velocities dt M^-1 F_ext of the external loads (forces and torques).
+    contacts: :class:`~forcespace.engine.records.Contacts` (gaps 0, keys unused);
+    inv_mx, inv_my, inv_i (nb,): inverse masses (zero for fixed bodies); v_ext: three
+    arrays (nb,), the velocities dt M^-1 F_ext of the external loads (forces and
+    torques) over dt = 1.
     """
 
-    a: np.ndarray
-    b: np.ndarray
-    nx: np.ndarray
-    ny: np.ndarray
-    ra: np.ndarray
-    rb: np.ndarray
-    mu: np.ndarray
+    contacts: Contacts
     inv_mx: np.ndarray
     inv_my: np.ndarray
     inv_i: np.ndarray
     v_ext: tuple
-    mn: np.ndarray = field(init=False)
-    mt: np.ndarray = field(init=False)
 
-    def __post_init__(self):
-        self.mn, self.mt = effective_masses(self.a, self.b, self.nx, self.ny, self.ra, self.rb,
-                                            self.inv_mx, self.inv_my, self.inv_i)
-        self.closed = np.zeros(self.a.shape[0])
+    @property
+    def mu(self) -> np.ndarray:
+        """Coulomb coefficients (Nc,)."""
+        return self.contacts.mu
 
-    def velocities(self, rn, rt):
-        """Velocities (vx, vy, w), each (nb,), of the loads and the contact forces rn,
-        rt (Nc,) applied from rest over dt = 1 (statics: masses only precondition)."""
-        vx, vy, w = (v.copy() for v in self.v_ext)
-        add_contact_velocities(self.a, self.b, self.nx, self.ny, self.ra, self.rb, rn, rt,
-                               self.inv_mx, self.inv_my, self.inv_i, 1.0, vx, vy, w)
-        return vx, vy, w
+    def velocities(self, rn, rt) -> Motion:
+        """Velocities of the loads and the contact forces rn, rt (Nc,) applied from rest
+        over dt = 1 (statics: masses only precondition), with the inverse masses."""
+        m = Motion(*(np.array(v, dtype=float) for v in self.v_ext),
+                   self.inv_mx, self.inv_my, self.inv_i)
+        add_contact_velocities(self.contacts, rn, rt, m, 1.0)
+        return m
 
-    def sweep(self, rn, rt, velocities, max_sweeps: int, seed: int) -> "SweepResult":
+    def sweep(self, rn, rt, motion: Motion, max_sweeps: int, seed: int) -> SweepStats:
         """Up to ``max_sweeps`` Gauss-Seidel sweeps on rn, rt (in place), gaps closed,
-        dt = 1 (:func:`forcespace.nlgs.nlgs_solve`)."""
-        vx, vy, w = velocities
-        return SweepResult(*nlgs_solve(
-            self.a, self.b, self.nx, self.ny, self.ra, self.rb, self.closed, self.mu, self.mn,
-            self.mt, rn, rt, vx, vy, w, self.inv_mx, self.inv_my, self.inv_i, 1.0, 0.0,
-            max_sweeps, seed))
-
-
-class SweepResult(NamedTuple):
-    """What a run of Gauss-Seidel sweeps did."""
-
-    sweeps: int
-    relative_change: float       # sum |dR| / sum |R| of the last sweep
-    normal_updates: int
-    tangential_updates: int      # 0 without friction
+        dt = 1 (:func:`forcespace.engine.nlgs.solve`)."""
+        return solve(self.contacts, motion, rn, rt, SweepSettings(1.0, 0.0, int(max_sweeps)),
+                     seed)
 
 
 @dataclass(frozen=True)
@@ -112,7 +92,7 @@ def relax(system: FrozenContacts, rn, rt, violation, tol, max_sweeps, seed=0, ch
     best, since = np.inf, 0
     while True:
         done = s.sweep(rn, rt, s.velocities(rn, rt), min(chunk, max_sweeps - sweeps),
-                       (seed * 1_000_003 + sweeps) % (2**31 - 1))
+                       chunk_seed(seed, sweeps))
         sw = done.sweeps
         sweeps += sw
         n_tang += done.tangential_updates
@@ -175,7 +155,9 @@ def frozen_contacts(p: StaticsProblem) -> FrozenContacts:
         m_plate = float(p.mass.mean())
         inv_my[n + 1] = 1.0 / m_plate
         v_ext[1][n + 1] = -p.b[3 * n] / m_plate
-    return FrozenContacts(a=ka.astype(np.int64), b=b.astype(np.int64), nx=nx, ny=ny,
-                          ra=radius[np.where(a >= 0, a, n)], rb=radius[b],
-                          mu=p.mu.astype(float), inv_mx=inv_m, inv_my=inv_my, inv_i=inv_i,
-                          v_ext=v_ext)
+    nc = ka.shape[0]
+    contacts = Contacts(a=ka.astype(np.int64), b=np.asarray(b, np.int64),
+                        nx=np.array(nx, float), ny=np.array(ny, float), gap=np.zeros(nc),
+                        ra=radius[np.where(a >= 0, a, n)], rb=radius[b],
+                        mu=p.mu.astype(float), keys=np.zeros(nc, np.int64))
+    return FrozenContacts(contacts, inv_m, inv_my, inv_i, v_ext)

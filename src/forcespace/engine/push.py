@@ -14,7 +14,10 @@ import numpy as np
 from ..errors import InputError, NumericalError
 from ..model.packing import Packing
 from ..model.scene import parse_scene_text
-from .protocol import compress, force_unit, make_bodies, static_solve
+from .bodies import force_unit, make_bodies
+from .compress import compress
+from .static import static_solve
+
 
 @dataclass(frozen=True)
 class PushResult:

@@ -278,6 +278,20 @@ SCHEMA: dict[str, Key] = {
                               "NLGS sweep order: 0 = every sweep a fresh random order of "
                               "single contacts (the paper's); B > 0 = runs of B contacts in "
                               "spatial order, the runs shuffled (disks numbered row by row)"),
+    "solver.tolerance_moving": Key(float, 0.0, Range(0.0, 1.0, hi_open=True),
+                                   "NLGS tolerance while the top plate moves faster than "
+                                   "solver.moving_speed (0: solver.tolerance throughout)"),
+    "solver.moving_speed": Key(float, 0.0, _nonneg(),
+                               "top-plate speed, relative to sqrt(F0 rbar/mbar) as "
+                               "jamming.velocity_tol, above which solver.tolerance_moving "
+                               "applies"),
+    "solver.max_sweeps_moving": Key(int, 0, _int_at_least(0),
+                                    "sweep cap per step while solver.tolerance_moving applies "
+                                    "(0: solver.max_sweeps)"),
+    "solver.relaxation_fallback": Key(float, 0.5, Range(0.0, 1.0, lo_open=True),
+                                      "fraction of solver.max_sweeps after which an "
+                                      "unconverged over-relaxed solve continues with omega = 1 "
+                                      "(1: never)"),
     "solver.contact_margin": Key(float, 0.1, _positive(),
                                  "pairs closer than this gap enter the contact list", "R"),
     "jamming.velocity_tol": Key(float, 1e-7, _positive(),
@@ -292,6 +306,9 @@ SCHEMA: dict[str, Key] = {
                                      "sweep cap of the final static solve"),
     "jamming.contact_gap_tol": Key(float, 1e-6, _positive(),
                                    "gap below which a pair is a contact of the packing", "R"),
+    "jamming.max_overlap": Key(float, 1e-4, _positive(),
+                               "largest overlap a finished packing may keep; above it the "
+                               "run ends with a non-convergence report", "R"),
     "analysis.slice_height": Key(float, 0.0, _nonneg("0: no slice recorded"),
                                  "height of the middle slice analysed as in the paper", "R"),
 }

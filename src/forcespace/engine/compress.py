@@ -1,0 +1,298 @@
+"""Compression until jammed: windows of time steps, the rest criterion, checkpoints.
+
+Orchestration only (numpy, progress, stopping rules); the physics is in the kernels of
+:mod:`forcespace.engine.step`. The compression runs windows of ``jamming.window``
+steps until no load-bearing disk and not the top plate moved, over a window, by more
+than ``jamming.velocity_tol`` * sqrt(F0 rbar / mbar) times the window's duration (a
+mean speed, so that overlap-correction jitter averages out while steady sliding does
+not), with the plate carried by the packing.
+
+A window runs in several kernel calls of about ``CHUNK_SECONDS`` each (the same
+trajectory bit for bit: step seeds count from the window's start), so that Ctrl-C
+and the progress bar are served within a second or so.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError, NumericalError
+from ..io.checkpoint import read_checkpoint, write_checkpoint
+from ..model.scene import Scene
+from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP
+from ..progress import progress
+from .bodies import Bodies, scene_box, step_settings, velocity_scale
+from .interrupts import InterruptFlag
+from .records import ContactForces, StepStats
+from .step import run_steps
+from .streams import window_seed
+
+CHECKPOINT_SECONDS = 30.0      # [s] wall time between checkpoints of a compression
+CHUNK_SECONDS = 0.5            # [s] CPU time aimed at per kernel call
+STATE_ARRAYS = ("x", "y", "th", "vx", "vy", "w")
+
+
+@dataclass
+class Run:
+    """The state of a compression (what a checkpoint holds besides the bodies).
+
+    steps: steps done; log: one row per window (step, v_mean, v_max [R/T], sweeps per
+    step, largest final relative force change); stats: totals over all steps;
+    contacts: the last step's contacts; v_ref: the largest window mean speed so far
+    [R/T] (the progress measure's origin); phase: "compressing" or "jammed".
+    """
+
+    steps: int = 0
+    log: list = field(default_factory=list)
+    stats: StepStats = field(default_factory=StepStats.zero)
+    contacts: ContactForces = field(default_factory=ContactForces.empty)
+    v_ref: float = float("nan")
+    phase: str = "compressing"
+
+
+def scene_identity(scene: Scene) -> str:
+    """What a checkpoint must match: the scene without its step budget."""
+    return scene.with_overrides(**{"jamming.max_steps": 1}).to_toml().split("\n", 1)[1]
+
+
+def snapshot(bodies: Bodies, run: Run) -> dict:
+    """The checkpoint state of ``bodies`` and ``run`` (copies)."""
+    state = {k: getattr(bodies, k).copy() for k in STATE_ARRAYS}
+    state.update(keys=run.contacts.keys.copy(), rn=run.contacts.rn.copy(),
+                 rt=run.contacts.rt.copy(), log=np.array(run.log, float).reshape(-1, 5),
+                 steps=run.steps, phase=run.phase, v_first=run.v_ref,
+                 stats=run.stats._asdict())
+    return state
+
+
+def restore(path, scene: Scene, bodies: Bodies) -> Run | None:
+    """The run saved in checkpoint ``path`` for ``scene`` (bodies restored in place), or
+    None without a checkpoint. InputError for a foreign or corrupt file."""
+    state = read_checkpoint(path, scene_identity(scene))
+    if state is None:
+        return None
+    if state["x"].shape != bodies.x.shape:
+        raise InputError(path, "bodies", f"checkpoint has {state['x'].shape[0]} bodies, the "
+                         f"scene {bodies.x.shape[0]}; delete it to start afresh")
+    for k in STATE_ARRAYS:
+        getattr(bodies, k)[:] = state[k]
+    try:
+        stats = StepStats(**{k: state["stats"][k] for k in StepStats._fields})
+    except KeyError as exc:
+        raise InputError(path, f"stats.{exc.args[0]}", "missing; delete the checkpoint to "
+                         "start afresh") from None
+    return Run(steps=state["steps"], log=[tuple(row) for row in state["log"]], stats=stats,
+               contacts=ContactForces(state["keys"].astype(np.int64), state["rn"],
+                                      state["rt"]),
+               v_ref=state["v_first"], phase=state["phase"])
+
+
+class JamProgress:
+    """Progress of a jam by its own measure: the window mean speed on a log scale from
+    the largest one seen (0 %) to the rest tolerance (100 %), never moving back."""
+
+    def __init__(self, v_tol: float, show: bool, run: Run, max_steps: int):
+        self.v_tol, self.max_steps = v_tol, max_steps
+        self.bar = progress(total=100.0, desc="compressing", unit="%", disable=not show)
+        self.bar.bar_format = ("{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}]"
+                               "{postfix}")
+        self.done = 0.0
+        self.update(run)
+
+    def update(self, run: Run) -> None:
+        if run.log:
+            v = run.log[-1][1]
+            frac = 0.0
+            if v <= self.v_tol or run.phase == "jammed":
+                frac = 1.0
+            elif run.v_ref > self.v_tol:
+                frac = math.log(run.v_ref / v) / math.log(run.v_ref / self.v_tol)
+            frac = min(max(frac, 0.0), 1.0)
+            self.bar.set_postfix_str(f"{run.steps}/{self.max_steps} steps, v_mean/v_tol "
+                                     f"{v / self.v_tol:.1e}, "
+                                     f"{run.log[-1][3]:.0f} sweeps/step", refresh=False)
+            self.bar.update(max(100.0 * frac - self.done, 0.0))   # 0: a timed refresh
+            self.done = max(self.done, 100.0 * frac)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def run_window(scene: Scene, bodies: Bodies, run: Run, seed: int, settings, chunk: list,
+               interrupt: InterruptFlag, on_interrupt) -> StepStats:
+    """One window of ``jamming.window`` steps in chunks of kernel calls (in place).
+
+    ``chunk``: [steps per call], adapted to about CHUNK_SECONDS of CPU per call;
+    ``on_interrupt()`` runs (and Interrupted is raised) when an interrupt was requested
+    after a call.
+    """
+    box, step, sweep = settings
+    window = scene["jamming.window"]
+    wseed = window_seed(seed, run.steps)
+    total = StepStats.zero()
+    done = 0
+    while done < window:
+        k = min(chunk[0], window - done)
+        t0 = time.process_time()
+        run.contacts, st = run_steps(bodies, box, step, sweep, run.contacts, k, wseed, done)
+        spent = time.process_time() - t0
+        done += k
+        total = total.merged(st)
+        if spent < 0.5 * CHUNK_SECONDS:
+            chunk[0] = min(2 * chunk[0], window)
+        elif spent > 2.0 * CHUNK_SECONDS and chunk[0] > 1:
+            chunk[0] //= 2
+        if interrupt.requested:
+            interrupt.check(on_interrupt())
+    return total
+
+
+def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=None,
+             checkpoint=None, interrupt: InterruptFlag | None = None) -> dict:
+    """Run contact dynamics until jammed (in place). Returns solver statistics.
+
+    Overlaps left by truncated sweeps beyond ``solver.overlap_slop`` are
+    removed at the rate ``solver.overlap_correction``; below the slop Unger's
+    rule holds exactly, so the jammed state is a true rest state of the rigid
+    dynamics.
+
+    ``checkpoint``: a file the state is saved to every ``CHECKPOINT_SECONDS``, when
+    jammed (phase "jammed"), at ``jamming.max_steps`` and on an interrupt, and resumed
+    from if it exists (bit-identical to an uninterrupted run); the caller removes it
+    once the packing is done. ``log`` (a list) receives one row per window.
+    ``interrupt``: see :mod:`forcespace.engine.interrupts`.
+
+    Raises NumericalError if the state becomes non-finite or max_steps is reached,
+    Interrupted on a requested interrupt.
+    """
+    interrupt = interrupt or InterruptFlag()
+    v0 = velocity_scale(scene, bodies)
+    v_tol = scene["jamming.velocity_tol"] * v0
+    run = restore(checkpoint, scene, bodies) if checkpoint else None
+    run = run or Run()
+    settings = (scene_box(scene), *step_settings(scene, v0))
+    t0 = time.perf_counter()
+    bar = JamProgress(v_tol, show_progress, run, scene["jamming.max_steps"])
+    try:
+        _windows(scene, bodies, run, seed, settings, v_tol, bar, checkpoint, interrupt)
+    finally:
+        bar.close()
+    if log is not None:
+        log.extend(run.log)
+    bodies.contacts = run.contacts
+    s = run.stats
+    return {"steps": run.steps, "sweeps_total": int(s.sweeps_total),
+            "sweeps_max_step": int(s.sweeps_max_step),
+            "normal_updates": int(s.normal_updates),
+            "tangential_updates": int(s.tangential_updates),
+            "steps_at_sweep_cap": int(s.steps_at_sweep_cap),
+            "compress_seconds": time.perf_counter() - t0}
+
+
+def _windows(scene, bodies, run: Run, seed, settings, v_tol, bar, checkpoint, interrupt):
+    """The window loop of :func:`compress` (until jammed; run and bodies in place)."""
+    window = scene["jamming.window"]
+    window_time = window * scene["solver.dt"]
+    last_save = time.perf_counter()
+    chunk = [1]
+
+    def save(state):
+        if checkpoint:
+            write_checkpoint(checkpoint, scene_identity(scene), state)
+        return f"the run resumes from {checkpoint}" if checkpoint else ""
+
+    while run.phase != "jammed":
+        if run.steps >= scene["jamming.max_steps"]:
+            save(snapshot(bodies, run))
+            raise NumericalError(_not_jammed(scene, run, v_tol, checkpoint))
+        before = snapshot(bodies, run)
+        start = (before["x"], before["y"], before["th"])
+        st = run_window(scene, bodies, run, seed, settings, chunk, interrupt,
+                        lambda: save(before))
+        run.steps += window
+        run.stats = run.stats.merged(st)
+        check_state(scene, bodies, run.steps)
+        v_mean = window_displacement(scene, bodies, start, run.contacts) / window_time
+        run.v_ref = v_mean if not v_mean <= run.v_ref else run.v_ref
+        run.log.append((run.steps, v_mean, st.max_speed, st.sweeps_total / window,
+                        st.max_rel_change))
+        if v_mean <= v_tol and load_carried(scene, bodies, run.contacts):
+            run.phase = "jammed"
+            save(snapshot(bodies, run))
+        elif checkpoint and time.perf_counter() - last_save > CHECKPOINT_SECONDS:
+            save(snapshot(bodies, run))
+            last_save = time.perf_counter()
+        bar.update(run)
+
+
+def _not_jammed(scene, run: Run, v_tol, checkpoint) -> str:
+    v_mean = run.log[-1][1] if run.log else float("nan")
+    capped = int(run.stats.steps_at_sweep_cap)
+    return (f"not jammed after jamming.max_steps = {run.steps} steps "
+            f"(last mean speed over a window {v_mean:.3g}, tolerance {v_tol:.3g}; {capped} "
+            f"steps hit solver.max_sweeps = {scene['solver.max_sweeps']}); raise "
+            f"jamming.max_steps" + (", solver.max_sweeps" if capped else "")
+            + " or the tolerances"
+            + (f"; the run resumes from {checkpoint}" if checkpoint else ""))
+
+
+def window_displacement(scene: Scene, bodies: Bodies, start, contacts: ContactForces) -> float:
+    """Largest displacement [R] over the last window of a disk that bears load or feels
+    gravity (centre displacement + r*|rotation|), or of the top plate.
+
+    Jitter from overlap correction averages out over a window; steady sliding does
+    not. Free-flying disks (zero gravity) and, with periodic x and frictionless
+    walls, the uniform horizontal drift (a zero mode) are left out.
+    """
+    n = bodies.n
+    nb = n + N_WALL_SLOTS
+    x0, y0, th0 = start
+    keys, rn = contacts.keys, contacts.rn
+    a, b = keys // nb, keys % nb
+    on = rn > 0
+    loaded = bodies.fy_ext[:n] != 0
+    loaded[a[on & (a < n)]] = True
+    loaded[b[on & (b < n)]] = True
+    dx = bodies.x[:n] - x0[:n]
+    periodic = scene["box.periodic_x"]
+    if periodic:
+        dx -= scene["box.width"] * np.round(dx / scene["box.width"])
+    plate = abs(bodies.y[n + SLOT_TOP] - y0[n + SLOT_TOP])
+    if not loaded.any():
+        return float(plate)
+    if periodic and scene["physics.plate_mu"] == 0.0:
+        m = 1.0 / bodies.inv_mx[:n][loaded]      # the kernel's masses (per-disk densities)
+        dx = dx - (m * dx[loaded]).sum() / m.sum()
+    disp = np.hypot(dx, bodies.y[:n] - y0[:n]) + bodies.r * np.abs(bodies.th[:n] - th0[:n])
+    return float(max(disp[loaded].max(), plate))
+
+
+def check_state(scene: Scene, bodies: Bodies, steps: int) -> None:
+    """NumericalError if the state is non-finite or disks left the box through a
+    plate (a time step far too large for the loads: the implicit scheme stays
+    stable, but contacts are then missed between steps)."""
+    n = bodies.n
+    if not (np.isfinite(bodies.x[:n]).all() and np.isfinite(bodies.y).all()):
+        raise NumericalError(f"non-finite positions after {steps} steps; reduce solver.dt "
+                             f"(now {scene['solver.dt']:g})")
+    y, r = bodies.y[:n], bodies.r
+    below = scene["plates.bottom"] == "fixed" and (y + r < bodies.y[n + SLOT_BOTTOM]).any()
+    above = scene["plates.top"] == "load" and (y - r > bodies.y[n + SLOT_TOP]).any()
+    if below or above:
+        raise NumericalError(f"disks passed through the {'bottom' if below else 'top'} plate "
+                             f"after {steps} steps: solver.dt = {scene['solver.dt']:g} is too "
+                             f"large for these loads; reduce it")
+
+
+def load_carried(scene: Scene, bodies: Bodies, contacts: ContactForces) -> bool:
+    """Whether the packing carries the top plate: its contacts push up with at least
+    half the plate load (a plate that has not reached the disks is not at rest,
+    even if it moves slowly). True without a top plate."""
+    if scene["plates.top"] != "load":
+        return True
+    nb = bodies.n + N_WALL_SLOTS
+    on_plate = (contacts.keys % nb) == bodies.n + SLOT_TOP
+    return float(contacts.rn[on_plate].sum()) >= -0.5 * bodies.fy_ext[bodies.n + SLOT_TOP]

@@ -1,0 +1,147 @@
+"""The static solve of a jammed configuration: frozen contacts, NLGS to equilibrium.
+
+Positions fixed, velocities zeroed, pairs with gap below ``jamming.contact_gap_tol``
+taken as closed contacts (gap set to 0), NLGS until the relative equilibrium residual
+of every disk and the top plate is at most ``jamming.static_tolerance``.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..errors import NumericalError
+from ..model.packing import Packing
+from ..model.scene import Scene
+from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, packing_body_code
+from ..progress import progress
+from .bodies import Bodies, force_unit, scene_box
+from .contacts import detect_contacts
+from .frozen import FrozenContacts, relax
+from .interrupts import InterruptFlag
+from .records import Contacts
+from .step import contact_list, warm_start
+
+
+class ResidualProgress:
+    """Progress of a relaxation by its own measure: the residual on a log scale from the
+    first one measured (0 %) to the tolerance (100 %), never moving back."""
+
+    def __init__(self, tol: float, show: bool, desc: str = "static solve"):
+        self.tol, self.first, self.done, self.sweeps = tol, None, 0.0, 0
+        self.bar = progress(total=100.0, desc=desc, unit="%", disable=not show)
+        self.bar.bar_format = ("{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}]"
+                               "{postfix}")
+
+    def __call__(self, sweeps: int, residual: float) -> None:
+        self.sweeps += sweeps
+        if self.first is None:
+            self.first = residual
+        if residual <= self.tol:
+            frac = 1.0
+        elif self.first > self.tol and residual > 0:
+            frac = math.log(self.first / residual) / math.log(self.first / self.tol)
+        else:
+            frac = 0.0
+        frac = min(max(frac, 0.0), 1.0)
+        self.bar.set_postfix_str(f"{self.sweeps} sweeps, residual {residual:.2e}",
+                                 refresh=False)
+        self.bar.update(max(100.0 * frac - self.done, 0.0))     # 0: a timed refresh
+        self.done = max(self.done, 100.0 * frac)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True,
+                 interrupt: InterruptFlag | None = None):
+    """Equilibrium forces on the frozen jammed configuration.
+
+    Starts from the forces of the last dynamic step (warm start) when
+    :func:`forcespace.engine.compress.compress` ran on ``bodies``: with friction S has
+    many points and this keeps the one the dynamics realised. ``interrupt``: checked
+    after every chunk of sweeps (raises Interrupted).
+
+    Returns (packing, statistics). The packing's contacts are all pairs with
+    gap at most ``jamming.contact_gap_tol``; their gaps are treated as closed
+    in the solve (the recorded gaps are the real ones).
+    """
+    interrupt = interrupt or InterruptFlag()
+    n = bodies.n
+    ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r, scene_box(scene),
+                                   scene["jamming.contact_gap_tol"])
+    c = contact_list(ints, floats, bodies.r, scene["physics.mu"], scene["physics.plate_mu"])
+    touched = np.zeros(n + N_WALL_SLOTS, dtype=bool)
+    touched[c.a] = touched[c.b] = True
+    loose = np.flatnonzero((bodies.fy_ext[:n] != 0) & ~touched[:n])
+    if loose.size:
+        raise NumericalError(f"disk {loose[0]} feels gravity but touches nothing: the "
+                             "configuration is not static (raise jamming.window or lower "
+                             "jamming.velocity_tol)")
+    if bodies.contacts is not None:  # start from the forces the dynamics ended with
+        rn, rt = warm_start(c.keys, bodies.contacts)
+        rt[c.mu == 0.0] = 0.0
+    else:
+        rn = np.zeros(c.a.shape[0])
+        rt = np.zeros(c.a.shape[0])
+    nb = n + N_WALL_SLOTS
+    system = FrozenContacts(c._replace(gap=np.zeros(c.a.shape[0])), bodies.inv_mx,
+                            bodies.inv_my, bodies.inv_i,
+                            (np.zeros(nb), bodies.fy_ext * bodies.inv_my, np.zeros(nb)))
+    packing_of = packing_view(scene, bodies, c, ints[:, 2].copy())
+    t0 = time.perf_counter()
+    bar = ResidualProgress(scene["jamming.static_tolerance"], show_progress)
+
+    def report(sweeps, residual):
+        bar(sweeps, residual)
+        interrupt.check()
+
+    try:
+        res = relax(
+            system, rn, rt, lambda rn, rt: packing_of(rn, rt).equilibrium_residual(),
+            scene["jamming.static_tolerance"], scene["jamming.static_max_sweeps"], seed,
+            chunk=100, max_chunk=20000, on_chunk=report)
+    finally:
+        bar.close()
+    stats = {"static_sweeps": res.sweeps, "static_tangential_updates": res.tangential_updates,
+             "static_seconds": time.perf_counter() - t0, "static_residual": res.violation}
+    return packing_of(rn, rt), stats
+
+
+def packing_view(scene: Scene, bodies: Bodies, c: Contacts, image):
+    """A function (rn, rt) -> Packing for the frozen configuration and contacts ``c``
+    (their real gaps; ``image`` (Nc,) the periodic images)."""
+    n = bodies.n
+    a, b, nx, ny, gap = c.a, c.b, c.nx, c.ny, c.gap
+    pa, pb = packing_body_code(a, n), packing_body_code(b, n)
+    x, y, r = bodies.x[:n].copy(), bodies.y[:n].copy(), bodies.r
+    normal = np.column_stack([nx, ny])
+    # contact point: on a's surface pushed half the gap toward b; walls: on the disk
+    point = np.empty((a.shape[0], 2))
+    da = a < n
+    point[da, 0] = x[a[da]] + (r[a[da]] + 0.5 * gap[da]) * nx[da]
+    point[da, 1] = y[a[da]] + (r[a[da]] + 0.5 * gap[da]) * ny[da]
+    wa = ~da  # a is a wall: b is a disk
+    point[wa, 0] = x[b[wa]] - r[b[wa]] * nx[wa]
+    point[wa, 1] = y[b[wa]] - r[b[wa]] * ny[wa]
+    if scene["box.periodic_x"]:
+        point[:, 0] -= scene["box.width"] * np.floor(point[:, 0] / scene["box.width"])
+    sigma = force_unit(scene)
+    density = scene["disks.density"]
+    if scene["disks.density_ratio"] != 1.0:     # per-disk densities, read off the masses
+        density = 1.0 / (bodies.inv_mx[:n] * np.pi * r**2)
+    y_top = bodies.y[n + SLOT_TOP] if scene["plates.top"] == "load" else np.nan
+    y_bot = bodies.y[n + SLOT_BOTTOM] if scene["plates.bottom"] == "fixed" else np.nan
+
+    def make(rn, rt) -> Packing:
+        return Packing(x=x, y=y, r=r, width=scene["box.width"],
+                       periodic_x=scene["box.periodic_x"], y_bottom=float(y_bot),
+                       y_top=float(y_top),
+                       top_force=scene["plates.top_force"] if scene["plates.top"] == "load" else 0.0,
+                       gravity=scene["physics.gravity"], density=density,
+                       mu=scene["physics.mu"], plate_mu=scene["physics.plate_mu"],
+                       a=pa, b=pb, normal=normal, point=point, image=image, gap=gap,
+                       fn=rn * sigma, ft=rt * sigma, seed=scene["scene.seed"],
+                       scene_text=scene.to_toml(), scene_name=scene.name)
+    return make

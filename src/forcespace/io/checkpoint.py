@@ -1,0 +1,96 @@
+"""The compression checkpoint: the state of an unfinished jam in self-describing HDF5.
+
+Written atomically (:func:`forcespace.io.h5.atomic_h5`: built in memory, then a
+temporary file renamed into place), so a kill never leaves half a checkpoint. Layout::
+
+    /        attrs: file_kind = "compression_checkpoint", forcespace_version,
+                    code_version, format_version, scene (the scene it belongs to, TOML
+                    without the step budget), steps, phase, v_first, and the run's
+                    statistics by name (sweeps_total, ...)
+    /bodies/{x, y, th, vx, vy, w}   (nb,)  body state (disks, then the 4 wall slots)
+    /contacts/{keys, rn, rt}        (Nc,)  the last step's contacts (warm start)
+    /log                            (k, 5) one row per window (see COLUMNS)
+
+Anything that is not such a file (garbage, another HDF5 file, a missing field) is
+one :class:`~forcespace.errors.InputError` naming the file.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from .h5 import atomic_h5, open_h5, write_dataset
+
+KIND = "compression_checkpoint"
+BODY_FIELDS = {"x": ("R", "centre x (wall slots unused)"),
+               "y": ("R", "centre y (wall slots: plate surfaces)"),
+               "th": ("rad", "rotation"),
+               "vx": ("R/T", "velocity x, T = sqrt(rho R^3 / sigma)"),
+               "vy": ("R/T", "velocity y"),
+               "w": ("rad/T", "angular velocity")}
+CONTACT_FIELDS = {"keys": ("1", "contact key a*(n+4) + b, sorted"),
+                  "rn": ("sigma", "normal force, sigma the engine's force unit"),
+                  "rt": ("sigma", "tangential force")}
+LOG_COLUMNS = ("step", "v_mean", "v_max", "sweeps_per_step", "max_rel_change")
+
+
+def write_checkpoint(path, scene: str, state: dict) -> None:
+    """Write a compression state atomically.
+
+    ``scene``: the identity string of the scene the state belongs to; ``state``: the
+    arrays of BODY_FIELDS and CONTACT_FIELDS, ``log`` (k, 5), and scalars ``steps``,
+    ``phase`` (str), ``v_first`` and ``stats`` (a dict of named numbers).
+    """
+    with atomic_h5(path, {"file_kind": KIND}) as f:
+        f.attrs["scene"] = scene
+        f.attrs["steps"] = int(state["steps"])
+        f.attrs["phase"] = str(state["phase"])
+        f.attrs["v_first"] = float(state["v_first"])
+        for k, v in state["stats"].items():
+            f.attrs[f"stats.{k}"] = v
+        g = f.create_group("bodies")
+        for k, (units, desc) in BODY_FIELDS.items():
+            write_dataset(g, k, np.asarray(state[k], float), units, desc)
+        g = f.create_group("contacts")
+        for k, (units, desc) in CONTACT_FIELDS.items():
+            write_dataset(g, k, state[k], units, desc)
+        write_dataset(f, "log", np.asarray(state["log"], float).reshape(-1, 5), "mixed",
+                      "one row per compression window; speeds in R/T", columns=LOG_COLUMNS)
+
+
+def read_checkpoint(path, scene: str) -> dict | None:
+    """The state saved in ``path`` for ``scene``; None if there is no such file.
+
+    InputError (one line, naming the file) for a file that is not a compression
+    checkpoint, lacks a field, or belongs to another scene.
+    """
+    path = Path(path)
+    if not path.is_file():
+        return None
+    with open_h5(path, kind=KIND) as f:
+        if f.attrs.get("scene") != scene:
+            raise InputError(path, "scene", "checkpoint belongs to another scene; delete it "
+                             "to start afresh")
+        try:
+            out = {k: f["bodies"][k][()] for k in BODY_FIELDS}
+            out.update({k: f["contacts"][k][()] for k in CONTACT_FIELDS})
+            out["log"] = f["log"][()].reshape(-1, 5)
+            out["steps"] = int(f.attrs["steps"])
+            out["phase"] = str(f.attrs["phase"])
+            out["v_first"] = float(f.attrs["v_first"])
+            out["stats"] = {k[6:]: f.attrs[k].item() for k in f.attrs if k.startswith("stats.")}
+        except (KeyError, ValueError, TypeError, OSError) as exc:
+            raise InputError(path, "(checkpoint)", f"is incomplete or corrupt ({exc}); delete "
+                             "it to start afresh") from None
+    nc = out["keys"].shape
+    if out["rn"].shape != nc or out["rt"].shape != nc or out["x"].ndim != 1:
+        raise InputError(path, "(checkpoint)", "arrays of inconsistent shapes; delete it to "
+                         "start afresh")
+    return out
+
+
+def remove_checkpoint(path) -> None:
+    """Delete a finished run's checkpoint (no error if it is gone)."""
+    Path(path).unlink(missing_ok=True)

@@ -1,0 +1,167 @@
+"""Protocol validation (issue 22): does the faster paper_fast jam the same packings,
+statistically, as paper_fast did before?
+
+The reference is ``inputs/paper_fast.toml`` with ``solver.max_sweeps = 1000`` and every
+key added by issue 22 at its neutral default (``solver.tolerance_moving = 0``,
+``solver.relaxation_fallback = 0.5``): the protocol of commit 938734f, bit for bit. The
+candidate is ``inputs/paper_fast.toml`` as it is. Both jam the same seeds (mu = 0.1,
+boxes scaled by ``--n N --scale-box``) and each packing gives:
+
+* z: the coordination of the non-rattlers (``Packing.coordination``);
+* packing fraction (``Packing.packing_fraction``);
+* rattler fraction (rattlers / n);
+* dim S / Nc of the paper's slice (height 28 sqrt(n / 200) R): dim S as
+  ``ForceSpace().compute(slice_problem(p, h)).dim`` computes it (:func:`slice_dim`), over
+  the slice's unknown contacts Nc.
+
+Per size and quantity: mean +- standard error over seeds for each protocol, Welch's
+t-test on the means and the two-sample Kolmogorov-Smirnov test (scipy), both p-values
+reported; a difference counts as significant at p < 0.05 (with 8 comparisons, about 0.3
+false alarms are expected by chance). Also the CPU seconds, steps and contact updates.
+
+Usage::
+
+    python -m forcespace_studies.protocol_validation [--sizes 200,800] [--seeds 10]
+        [--jobs 2] [--out studies]
+
+Rows go to OUT/protocol_validation.jsonl as they finish (a rerun skips the rows it
+has), the table to OUT/protocol_validation.md.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import numpy as np
+
+REFERENCE = {"solver.max_sweeps": 1000, "solver.tolerance_moving": 0.0,
+             "solver.moving_speed": 0.0, "solver.max_sweeps_moving": 0,
+             "solver.relaxation_fallback": 0.5}
+QUANTITIES = (("z", "z"), ("phi", "packing fraction"), ("rattler_fraction", "rattler fraction"),
+              ("dim_s_per_nc", "dim S / Nc"))
+
+
+def slice_dim(prob) -> int:
+    """dim S of a statics problem by the steps of ``ForceSpace().compute(prob).dim``
+    (problem scaled to <Fn> = 1, implicit equalities by LP, the rank of [A; fixed
+    columns; implicit rows]) without the rest of the analysis: its varying-contact LPs
+    (one pair per undecided column) took over 10 CPU minutes on some 800-disk slices."""
+    from forcespace.linalg import affine_hull
+    from forcespace.space.force_space import implicit_equalities
+    from forcespace.space.lp import eq_system, unit_problem
+    P, scale = unit_problem(prob)
+    G, _owner, _kind = P.inequalities()
+    Eq, rhs = eq_system(P, G[implicit_equalities(P)])
+    N, _xa, _rank = affine_hull(Eq, rhs, prob.x_jammed / scale)
+    return int(N.shape[1])
+
+
+def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: float = 0.1) -> dict:
+    """Jam one packing and measure it (runs in a worker process)."""
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    from forcespace.engine.protocol import build_packing
+    from forcespace.model.problem import slice_problem
+    from forcespace.model.scene import load_scene
+    scene, _ = load_scene(scene_file).scaled_to(n)
+    over = {"physics.mu": mu, "scene.seed": seed}
+    if protocol == "reference":
+        over.update(REFERENCE)
+    scene = scene.with_overrides(**over)
+    t0 = time.process_time()
+    p = build_packing(scene, show_progress=False)
+    cpu = time.process_time() - t0
+    h = 28.0 * math.sqrt(n / 200.0)
+    prob = slice_problem(p, h)
+    dim = slice_dim(prob)
+    m = p.meta
+    return {"protocol": protocol, "n": n, "seed": seed, "mu": mu, "cpu_s": cpu,
+            "steps": int(m["steps"]), "sweeps": int(m["sweeps_total"]),
+            "updates": int(m["normal_updates"] + m["tangential_updates"]),
+            "z": float(p.coordination()), "phi": float(p.packing_fraction()),
+            "rattler_fraction": float(p.rattlers().mean()),
+            "dim_s": int(dim), "slice_contacts": int(prob.n_contacts),
+            "dim_s_per_nc": dim / prob.n_contacts if prob.n_contacts else float("nan")}
+
+
+def run(sizes, seeds, jobs: int, path: Path, protocols=("reference", "candidate"),
+        scene_file: str = "paper_fast") -> list:
+    rows = [json.loads(line) for line in path.read_text().splitlines()] if path.is_file() else []
+    have = {(r["protocol"], r["n"], r["seed"]) for r in rows}
+    todo = [(pr, n, s) for n in sizes for s in range(1, seeds + 1)
+            for pr in protocols if (pr, n, s) not in have]
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        futures = {pool.submit(one, *t, scene_file): t for t in todo}
+        for fut in as_completed(futures):
+            row = fut.result()
+            rows.append(row)
+            with path.open("a") as fh:
+                fh.write(json.dumps(row) + "\n")
+            print(f"  {row['protocol']:9s} n={row['n']:4d} seed={row['seed']:2d}: "
+                  f"{row['cpu_s']:6.1f} CPU s, z {row['z']:.3f}, phi {row['phi']:.4f}, "
+                  f"dim S/Nc {row['dim_s_per_nc']:.3f}", flush=True)
+    return rows
+
+
+def table(rows, sizes, candidate: str = "candidate") -> str:
+    """Markdown table: reference against the rows labelled ``candidate``."""
+    from scipy import stats
+    out = ["| n | quantity | reference (mean +- s.e.) | candidate (mean +- s.e.) | "
+           "difference / s.e. | Welch t p | KS p |", "|---|---|---|---|---|---|---|"]
+    for n in sizes:
+        ref = [r for r in rows if r["n"] == n and r["protocol"] == "reference"]
+        new = [r for r in rows if r["n"] == n and r["protocol"] == candidate]
+        if len(ref) < 2 or len(new) < 2:
+            continue
+        for key, label in QUANTITIES + (("cpu_s", "CPU s"), ("steps", "steps"),
+                                        ("updates", "contact updates")):
+            a = np.array([r[key] for r in ref], float)
+            b = np.array([r[key] for r in new], float)
+            sa, sb = a.std(ddof=1) / np.sqrt(a.size), b.std(ddof=1) / np.sqrt(b.size)
+            t = stats.ttest_ind(a, b, equal_var=False).pvalue
+            ks = stats.ks_2samp(a, b).pvalue
+            z = (b.mean() - a.mean()) / math.hypot(sa, sb) if math.hypot(sa, sb) else 0.0
+            fmt = ".4g" if key in ("cpu_s", "steps", "updates") else ".4f"
+            out.append(f"| {n} ({a.size}+{b.size} seeds) | {label} | {a.mean():{fmt}} +- "
+                       f"{sa:{fmt}} | {b.mean():{fmt}} +- {sb:{fmt}} | {z:+.2f} | {t:.3f} | "
+                       f"{ks:.3f} |")
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="200,800")
+    ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--out", type=Path, default=Path("studies"))
+    ap.add_argument("--protocols", default="reference,candidate",
+                    help="which protocols to run (rows already in the JSONL are kept)")
+    ap.add_argument("--scene", default="paper_fast", help="the paper_fast scene (name or file)")
+    a = ap.parse_args(argv)
+    sizes = [int(s) for s in a.sizes.split(",")]
+    a.out.mkdir(parents=True, exist_ok=True)
+    rows = run(sizes, a.seeds, a.jobs, a.out / "protocol_validation.jsonl",
+               tuple(a.protocols.split(",")), a.scene)
+    from forcespace.model.scene import load_scene
+    sc = load_scene(a.scene)
+    changed = {k: sc[k] for k in REFERENCE}
+    text = (f"# Protocol validation: paper_fast before and after issue 22\n\n"
+            f"Made by `python -m forcespace_studies.protocol_validation --sizes {a.sizes} "
+            f"--seeds {a.seeds}` (see its docstring for the method). mu = 0.1, boxes scaled "
+            f"with n, seeds 1-{a.seeds}. Reference: paper_fast with {REFERENCE} (the protocol "
+            f"of 938734f); candidate: paper_fast as shipped, {changed}.\n\n"
+            + table(rows, sizes) + "\n")
+    for label in sorted({r["protocol"] for r in rows} - {"reference", "candidate"}):
+        text += f"\n## Tried, not shipped: {label}\n\n" + table(rows, sizes, label) + "\n"
+    (a.out / "protocol_validation.md").write_text(text)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
