@@ -141,3 +141,15 @@ def test_functions_are_short_and_kernels_take_named_state():
                 long.append(f"{name}.{fn.name}: {lines} lines")
     assert long == []
     assert wide == []
+
+
+def test_errors_cross_process_boundaries_intact():
+    """A task's InputError raised in a pool worker reaches the study as the same error
+    (it once arrived as BrokenProcessPool: the default pickling lost its fields)."""
+    import pickle
+
+    from forcespace.errors import InputError, NumericalError
+    e = pickle.loads(pickle.dumps(InputError("a.toml", "disks.n", "must be >= 1", got=0)))
+    assert isinstance(e, InputError) and str(e) == "a.toml: disks.n = 0: must be >= 1"
+    assert (e.source, e.field, e.got) == ("a.toml", "disks.n", 0)
+    assert str(pickle.loads(pickle.dumps(NumericalError("no")))) == "no"

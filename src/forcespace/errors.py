@@ -17,6 +17,11 @@ class InputError(ForcespaceError):
         value = "" if got is None else f" = {got!r}"
         super().__init__(f"{self.source}: {field}{value}: {allowed}")
 
+    def __reduce__(self):
+        """Picklable with its fields (a task's error crosses from a pool worker intact;
+        the default would call __init__ with the message alone and fail)."""
+        return (type(self), (self.source, self.field, self.allowed, self.got))
+
 
 class NumericalError(ForcespaceError):
     """A computation produced a non-finite value or failed to converge where it must."""

@@ -33,7 +33,8 @@ from forcespace.space.structure import ClusterDecomposition, decompose, domains,
 from forcespace.sweep import Task
 
 from .common import shared_packing
-from .fig1 import run_samplers
+from .common import run_samplers, sampler
+from .stats import slope_fit
 
 # seeds: packings per size (seeds 1..k); relax_max_n: largest n sampled by the relax
 # walk too; clusters_max_dim: largest dim S decomposed into elementary clusters (one LP
@@ -142,13 +143,14 @@ def packing_task(scene: str, n_disks: int, mu: float, seed: int, samples: int, w
     if an.dim:
         d = an.dim
         shorter = dict(thin=d * d // 4, burn_in=2 * d * d) if d > HAR_BIG_DIM else {}
-        runs.append(("hit_and_run", fs.HitAndRun(n=samples, seed=seed, **shorter)))
+        runs.append(("hit_and_run", sampler("hit_and_run", seed, samples, max_seconds,
+                                            **shorter)))
         if relax:
-            runs.append(("relax", fs.RelaxWalk(n=samples, seed=seed)))
+            runs.append(("relax", sampler("relax", seed, samples, max_seconds)))
     else:                                   # S is one point: no ambiguity (mu > 0)
         row["eta_hit_and_run"] = 0.0
         row["eta_relax"] = 0.0 if relax else None
-    run_samplers(row, runs, prob, wd, max_seconds, min_samples=MIN_SAMPLES)
+    run_samplers(row, runs, prob, wd)
     return row
 
 
@@ -170,8 +172,6 @@ def slope_interval(n, eta, level: float = 0.95) -> dict:
     on log eta; nan where fewer than 3 points or a single size."""
     from scipy.stats import t as student
 
-    from .fig1 import slope_fit
-
     n, eta = np.asarray(n, float), np.asarray(eta, float)
     slope, se = slope_fit(n, eta)
     k = int(n.size)
@@ -187,8 +187,6 @@ def slope_interval(n, eta, level: float = 0.95) -> dict:
 
 def bootstrap_slope(n, eta, n_boot: int = 2000, seed: int = 0):
     """2.5-97.5 % interval of the slope, packings resampled within each size."""
-    from .fig1 import slope_fit
-
     n, eta = np.asarray(n, float), np.asarray(eta, float)
     groups = [np.flatnonzero(n == v) for v in np.unique(n)]
     if len(groups) < 2 or n.size < 3:

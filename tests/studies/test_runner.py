@@ -106,7 +106,7 @@ def test_provenance_in_task_json_tables_and_ensembles(tmp_path):
     from forcespace_studies import fig1
     from forcespace.io.ensemble_file import read_ensemble
     task = Task("mu0.1_s1", "forcespace_studies.fig1:packing_task",
-                dict(scene="quick", n_disks=20, slice_height=10.0, samples=4, mu=0.01, seed=2,
+                dict(scene="quick", n_disks=20, slice_height=10.0, cap=40, mu=0.01, seed=2,
                      max_seconds=30.0))
     (res,) = run_tasks([task], tmp_path / "s", workers=1, progress=False)
     assert res["ok"] and res["code_version"] == code_version()
