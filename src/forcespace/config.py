@@ -65,6 +65,9 @@ RHAT_MAX = 1.05             # [1] chains whose split R-hat (rank-normalised, fol
                             # this on any tracked statistic have not mixed
 MIN_ESS = 100.0             # [samples] effective sample size a converged run reaches on every
                             # tracked statistic (bulk and tail)
+MIN_DRAWS_PER_CHAIN = 100   # [samples] a target-ESS run stops no earlier: ESS estimated from
+                            # shorter chains runs high (dim 1344: ESS "100" after 50 draws per
+                            # chain was 77 on the longer run)
 
 # ---- point force ----------------------------------------------------------------------------
 DISPLACED = 0.1             # [R] a disk moved by more than this took part in a rearrangement

@@ -103,13 +103,14 @@ class Stop:
     (status 1), or, with ``target_ess``, as soon as every tracked statistic of the
     samples has bulk and tail ESS >= target_ess and R-hat <= ``config.RHAT_MAX``
     (status 0; reaching n without it is status 1). ESS is checked after every
-    ``chains`` samples once their number has grown by a quarter since the last check."""
+    ``chains`` samples once their number has grown by a quarter since the last check,
+    from ``config.MIN_DRAWS_PER_CHAIN`` draws per chain on (shorter chains overstate it)."""
 
     def __init__(self, n: int, max_seconds=None, target_ess=None, chains: int = 1,
                  seed: int = 0):
         self.n, self.max_seconds, self.target_ess = n, max_seconds, target_ess
         self.chains, self.seed = max(int(chains), 1), seed
-        self.next_check = 8 * self.chains
+        self.next_check = config.MIN_DRAWS_PER_CHAIN * self.chains
         self.last = {}
 
     def __call__(self, k: int, samples, t0: float):
@@ -130,16 +131,21 @@ class Stop:
                           f"samples{self._short()}"
         return None
 
-    def at_cap(self, k: int):
-        """(status, message) of a run that drew all n samples."""
+    def at_cap(self, k: int, samples=None):
+        """(status, message) of a run that drew all n samples (``samples()``: as for
+        ``__call__``, to say how far short of the target ESS it stopped)."""
         if self.target_ess is None:
             return 0, f"{k} samples"
+        if samples is not None:
+            X, chains = samples()
+            s = summarize(tracked_statistics(by_chain(X, chains), seed=self.seed))
+            self.last = {"min_ess": s["min_ess"], "max_rhat": s["max_rhat"]}
         return 1, f"reached n = {self.n} samples{self._short()}"
 
     def _short(self) -> str:
         if self.target_ess is None or not self.last:
             return ""
-        return (f" short of the target ESS {self.target_ess:g} (last check: ESS "
+        return (f" short of the target ESS {self.target_ess:g} (ESS "
                 f"{self.last['min_ess']:.0f}, R-hat {self.last['max_rhat']:.3f})")
 
 
@@ -180,7 +186,7 @@ def _draw(walk, problem, stop, output, old, every, progress, t0) -> Ensemble:
             c = np.concatenate([old.ensemble.chains, c])
         return X, c
 
-    outcome = None if have < stop.n else stop.at_cap(have)
+    outcome = None if have < stop.n else stop.at_cap(have, samples)
     with progress_bar(total=stop.n, desc=walk.sampler, unit="sample",
                       disable=not progress) as bar:
         bar.update(min(have, stop.n))
@@ -196,7 +202,7 @@ def _draw(walk, problem, stop, output, old, every, progress, t0) -> Ensemble:
         except BaseException:
             sink.flush()       # finished samples are never lost
             raise
-    status, message = outcome if outcome is not None else stop.at_cap(stop.n)
+    status, message = outcome if outcome is not None else stop.at_cap(stop.n, samples)
     ens = _ensemble(walk, problem, old, sink, status, message, output)
     if sink.buffer or sink.drawn:
         sink.flush(dumps(ens.diagnostics))
