@@ -45,3 +45,21 @@ def test_force_legend_widths_match_the_network():
         # the label is rounded to 3 digits: its width agrees to that
         assert abs(h.get_linewidth() - STYLE["max_width"] * f / p.fn.max()) < 0.01
     assert ax.get_xlabel() == LABELS["x"] and "$" in ax.get_title()
+
+
+def test_a_log_axis_without_positive_data_is_saved_linear_with_a_note(tmp_path):
+    # a study whose chains all failed to converge has no eta to plot on its log axis:
+    # the figure is still written (linear, with a note), not a matplotlib error
+    from matplotlib.figure import Figure
+
+    from forcespace.plot import save_figure
+    fig = Figure()
+    ax_empty, ax_zero = fig.subplots(1, 2)
+    ax_empty.set(xscale="log", yscale="log")
+    ax_zero.plot([1.0, 2.0], [0.0, 0.0])
+    ax_zero.set(xscale="log", yscale="log")
+    save_figure(fig, tmp_path / "f.png", tight=True)
+    assert (tmp_path / "f.png").stat().st_size > 0 and (tmp_path / "f.pdf").exists()
+    assert ax_zero.get_xscale() == "log" and ax_zero.get_yscale() == "linear"
+    assert ax_empty.get_yscale() == "linear"
+    assert any("no positive values on the y axis" in t.get_text() for t in ax_zero.texts)

@@ -233,8 +233,27 @@ def draw_packing(p: Packing, path, title: str | None = None, values=None,
     save_figure(ax.figure, path, dpi)
 
 
-def save_figure(fig, path, dpi=150):
-    """Save ``fig`` at ``path``; a PNG also gets a PDF twin. Atomic via temp + rename."""
+def _unlog_empty_axes(fig) -> None:
+    """A log axis with no positive data (e.g. no converged chain to plot) cannot be drawn:
+    it goes linear and says so, instead of ending the run in a matplotlib error."""
+    for ax in fig.axes:
+        for name, interval in (("x", ax.dataLim.intervalx), ("y", ax.dataLim.intervaly)):
+            scale = ax.get_xscale() if name == "x" else ax.get_yscale()
+            hi = max(interval)
+            if scale == "log" and not (np.isfinite(hi) and hi > 0):
+                (ax.set_xscale if name == "x" else ax.set_yscale)("linear")
+                ax.text(0.5, 0.5, f"no positive values on the {name} axis",
+                        transform=ax.transAxes, ha="center", va="center", fontsize=8,
+                        color="grey")
+
+
+def save_figure(fig, path, dpi=150, tight: bool = False):
+    """Save ``fig`` at ``path``; a PNG also gets a PDF twin. Atomic via temp + rename.
+    A log axis without positive data is drawn linear with a note; ``tight``: lay the
+    figure out with ``tight_layout`` first."""
+    _unlog_empty_axes(fig)
+    if tight:
+        fig.tight_layout()
     for t in figure_targets(path):
         with atomic_path(t) as tmp:
             fig.savefig(tmp, dpi=dpi, format=t.suffix.lstrip(".").lower() or "png")

@@ -138,8 +138,7 @@ def summarize(results: list[dict], out) -> dict:
     ax2.set(xscale="log", xlabel="mu", ylabel="fraction", ylim=(-0.03, 1.03),
             title="localisation of indeterminacy")
     ax2.legend(fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, out / "fig2_clusters.png")
+    save_figure(fig, out / "fig2_clusters.png", tight=True)
     figures = ["fig2_clusters.png"]
     if _draw_examples(rows, out):
         figures.insert(0, "fig2.png")
@@ -225,6 +224,5 @@ def _draw_examples(rows, out) -> bool:
         fs.plot_difference(p, prob, x1, x2, dec.domains, ax=ax, clusters=dec.clusters,
                         title=f"mu = {r['mu']:.3g} (seed {r['seed']}): dim S = {an.dim}, "
                               f"{dec.n_elementary} elementary")
-    fig.tight_layout()
-    save_figure(fig, Path(out) / "fig2.png")
+    save_figure(fig, Path(out) / "fig2.png", tight=True)
     return True

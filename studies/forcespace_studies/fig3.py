@@ -31,7 +31,7 @@ from forcespace.sweep import Task
 from .common import shared_packing
 
 QUICK = dict(scene="quick", n_disks=30, slice_height=12.0, mu=0.01, seeds=(1, 2, 3),
-             samples=16, max_seconds=60.0)
+             samples=16, max_seconds=None)
 FULL = dict(scene="paper", n_disks=200, slice_height=28.0, mu=0.01, seeds=tuple(range(1, 21)),
             samples=100, max_seconds=240.0)
 BOUNDARY_TOL = 1e-7     # slack [<Fn>] below which a network is on S's relative boundary
@@ -252,8 +252,7 @@ def summarize(results: list[dict], out) -> dict:
             f"{numbers['eta_ratio_null']['geometric_mean']:.2f})",
             "reproduced" if uniform else "refuted"))
         _section_panel(axes[2], rows[0], out)
-    fig.tight_layout()
-    save_figure(fig, out / "fig3.png")
+    save_figure(fig, out / "fig3.png", tight=True)
     text = _section_text(numbers, rows)
     write_section(out, "fig3", "Fig. 3: where the jammed network sits in S, and is the walk "
                   "uniform?", text, verdicts, numbers, figures=["fig3.png"])

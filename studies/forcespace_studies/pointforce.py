@@ -117,8 +117,7 @@ def summarize(results: list[dict], out) -> dict:
     ax1.legend(fontsize=7)
     ax2.set(xscale="log", yscale="log", xlabel="mu", title="size of the rearrangement")
     ax2.legend(fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, out / "pointforce.png")
+    save_figure(fig, out / "pointforce.png", tight=True)
     numbers = {"packings": len(rows), "pushed": len(pushed), "tasks_failed": len(failed),
                "not_at_rest_without_force": len(restless),
                "failed": [f"{r['task']}: {r.get('error')}" for r in failed],

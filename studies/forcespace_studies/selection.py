@@ -351,8 +351,7 @@ def summarize(results: list[dict], out) -> dict:
                  "selection, sel_ov: from the rigid overlaps, na_*: true Coulomb on given "
                  "sliding sets, cd: jammed, centre of S)", fontsize=7)
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
-    fig.tight_layout()
-    save_figure(fig, out / "selection.png")
+    save_figure(fig, out / "selection.png", tight=True)
     _report(rows, out, "\n".join(lines))
     return {"tasks": len(results), "failed": sum(not r.get("ok") for r in results),
             "rows": len(rows), "table": str(out / "selection.csv"),

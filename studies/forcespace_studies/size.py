@@ -44,7 +44,7 @@ from .stats import slope_fit
 # relax walk 191 s (100 samples). The cluster LPs grow with dim S and the domain's
 # size together, hence the cap; at mu = 1 (small dim S) rho is measured at every n.
 QUICK = dict(scene="quick", sizes=(40, 60), mus=(0.1,), seeds={40: 2, 60: 2}, samples=20,
-             max_seconds=60.0, relax_max_n=40, clusters_max_dim=400)
+             max_seconds=None, relax_max_n=40, clusters_max_dim=400)
 # FULL runs the paper's protocol with the fast sweep (inputs/paper_fast.toml: same
 # physics, runs of contacts + over-relaxation) at every size, so that all sizes share
 # one engine; sizes from 100 to 2000 (a 2000-disk task costs ~20-30 min of jamming plus
@@ -370,8 +370,7 @@ def summarize(results: list[dict], out) -> dict:
            title="percolation and the largest domain")
     for ax in (a2, a3, a4):
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, out / "size.png")
+    save_figure(fig, out / "size.png", tight=True)
 
     numbers, verdicts = _verdicts(rows, fits, mus)
     numbers.update({"tasks": len(results), "tasks_failed": len(failed),
