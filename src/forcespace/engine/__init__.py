@@ -6,7 +6,7 @@ Modules, from the kernels up (each kernel sits behind a public function that val
 and shapes its arguments; kernels take the named records of ``records``):
 
 * ``records``    -- the named state of the kernels (bodies, box, contacts, settings, stats)
-* ``streams``    -- every random stream of the engine, derived from the scene seed
+* (random streams: :mod:`forcespace.streams`, every stream of the library in one place)
 * ``contacts``   -- contact detection (cell list): :func:`contacts.detect_contacts`
 * ``nlgs``       -- the Gauss-Seidel contact solver: :func:`nlgs.solve`
 * ``step``       -- Moreau-Jean time steps: :func:`step.run_steps`

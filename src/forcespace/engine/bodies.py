@@ -53,7 +53,7 @@ def loose_start(scene: Scene, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     fraction. Disks are placed largest first; x is periodic if the scene says so.
     With ``solver.sweep_block`` > 0 the disks are then numbered row by row (rows
     one largest diameter high, x increasing), so that contacts sorted by disk
-    index are near each other in space. ``rng``: :func:`forcespace.engine.streams.
+    index are near each other in space. ``rng``: :func:`forcespace.streams.
     placement_rng` (radii first, then the placement draws).
     """
     r = np.sort(random_radii(scene, rng))[::-1].copy()

@@ -28,7 +28,7 @@ from .bodies import Bodies, scene_box, step_settings, velocity_scale
 from .interrupts import InterruptFlag
 from .records import ContactForces, StepStats
 from .step import run_steps
-from .streams import window_seed
+from ..streams import window_seed
 
 CHECKPOINT_SECONDS = 30.0      # [s] wall time between checkpoints of a compression
 CHUNK_SECONDS = 0.5            # [s] CPU time aimed at per kernel call

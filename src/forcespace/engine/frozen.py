@@ -16,7 +16,7 @@ from ..errors import NumericalError
 from ..model.problem import StaticsProblem
 from .nlgs import add_contact_velocities, solve
 from .records import Contacts, Motion, SweepSettings, SweepStats
-from .streams import chunk_seed
+from ..streams import chunk_seed
 
 
 @dataclass

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..kernels import kernel
 from .records import Contacts, Motion, SweepSettings, SweepStats
-from .streams import order_state, shuffle
+from ..streams import order_state, shuffle
 
 
 def _check_contacts(c: Contacts, nb: int) -> Contacts:
@@ -80,7 +80,7 @@ def solve(contacts: Contacts, motion: Motion, rn, rt, settings: SweepSettings,
     ``contacts``: :class:`~forcespace.engine.records.Contacts`; ``motion``: velocities
     (updated in place) and inverse masses; rn, rt (Nc,) [sigma]: the starting forces,
     updated in place; ``settings``: :class:`~forcespace.engine.records.SweepSettings`;
-    ``seed`` >= 0: the sweep order's seed (:mod:`forcespace.engine.streams`).
+    ``seed`` >= 0: the sweep order's seed (:mod:`forcespace.streams`).
     """
     m = _check_motion(motion)
     c = _check_contacts(contacts, m.vx.shape[0])

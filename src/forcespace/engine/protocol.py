@@ -2,7 +2,7 @@
 
 1. Radii uniform in [radius_min, radius_max]; random sequential placement of
    non-overlapping disks at ``box.initial_packing_fraction``
-   (:mod:`forcespace.engine.bodies`; random streams: :mod:`forcespace.engine.streams`).
+   (:mod:`forcespace.engine.bodies`; random streams: :mod:`forcespace.streams`).
 2. Contact dynamics under the scene's loads (top-plate force, gravity) until at rest
    (:func:`forcespace.engine.compress.compress`).
 3. Static solve on the frozen configuration (:func:`forcespace.engine.static.static_solve`).
@@ -27,7 +27,7 @@ from .bodies import (Bodies, check_scene, force_unit, loose_start,  # noqa: F401
 from .compress import compress
 from .interrupts import deferred_sigint
 from .static import static_solve
-from .streams import placement_rng
+from ..streams import placement_rng
 
 __all__ = ["Bodies", "build_packing", "compress", "force_unit", "jam", "loose_start",
            "make_bodies", "random_radii", "row_order", "static_solve"]

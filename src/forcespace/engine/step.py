@@ -21,7 +21,7 @@ from .contacts import detect_kernel
 from .nlgs import solve_kernel, velocities_kernel
 from .records import (BodyArrays, Box, ContactForces, Contacts, Motion, StepSettings,
                       StepStats, SweepSettings)
-from .streams import step_seed
+from ..streams import step_seed
 
 
 def warm_start(keys, previous: ContactForces):
@@ -103,7 +103,7 @@ def steps_kernel(bodies, box, step, sweep, prev, nsteps, seed, step0):
     bodies: BodyArrays (positions and velocities updated in place); box: Box; step:
     StepSettings; sweep: SweepSettings; prev: ContactForces of the previous step (warm
     start); seed: the window's seed; step0: index of the first step within its window
-    (step s sweeps with :func:`forcespace.engine.streams.step_seed` (seed, step0 + s)).
+    (step s sweeps with :func:`forcespace.streams.step_seed` (seed, step0 + s)).
     Returns (ContactForces of the last step, StepStats).
     """
     x, y, th, vx, vy, w, r = bodies.x, bodies.y, bodies.th, bodies.vx, bodies.vy, bodies.w, \
@@ -112,7 +112,7 @@ def steps_kernel(bodies, box, step, sweep, prev, nsteps, seed, step0):
     motion = Motion(vx, vy, w, inv_mx, inv_my, bodies.inv_i)
     n = r.shape[0]
     width, periodic = box.width, box.periodic
-    dt, tol, max_sweeps = sweep.dt, sweep.tol, sweep.max_sweeps
+    dt, max_sweeps = sweep.dt, sweep.max_sweeps
     keys, rn, rt = prev.keys, prev.rn, prev.rt
     sweeps_total = 0
     sweeps_max = 0

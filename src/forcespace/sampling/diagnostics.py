@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import config
 from ..measures import eta as eta_fn
+from ..streams import projection_generator
 
 N_PROJECTIONS = 4
 
@@ -40,7 +41,7 @@ def _arviz():
 
 def projection_directions(dim: int, n_proj: int = N_PROJECTIONS, seed: int = 0) -> np.ndarray:
     """(n_proj, dim) fixed random unit directions for the ``proj*`` statistics."""
-    R = np.random.default_rng(np.random.SeedSequence([seed, 0x5EED])).normal(size=(n_proj, dim))
+    R = projection_generator(seed).normal(size=(n_proj, dim))
     return R / np.linalg.norm(R, axis=1, keepdims=True)
 
 

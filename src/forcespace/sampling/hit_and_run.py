@@ -47,6 +47,7 @@ from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
 from ..result import Computed
 from ..space.force_space import ForceSpace
+from ..streams import chain_states
 from .driver import Stop, check_target, run_walk
 from .ensemble import Ensemble
 from .rounding import mve_rounding
@@ -163,13 +164,6 @@ def har_steps(H, s0, w, state, n_steps, coordinate):
         for j in range(p):
             slack[j] -= t * hu[j]
     return bad
-
-
-def seed_states(seed: int, n_chains: int) -> np.ndarray:
-    """Independent xoshiro states (n_chains, 4) uint64 from numpy's SeedSequence."""
-    ss = np.random.SeedSequence(seed)
-    return np.array([c.generate_state(4, dtype=np.uint64) for c in ss.spawn(n_chains)],
-                    dtype=np.uint64)
 
 
 # ----------------------------------------------------------------------------
@@ -311,7 +305,7 @@ class _Walk:
             self.times["rounding_s"] = time.perf_counter() - t1
         else:
             T, H, rinfo = np.zeros((N.shape[0], 0)), np.zeros((H0.shape[0], 0)), {}
-        states = seed_states(p["seed"], p["chains"])
+        states = chain_states(p["seed"], p["chains"])
         W = np.zeros((p["chains"], d))
         t1 = time.perf_counter()
         if d:

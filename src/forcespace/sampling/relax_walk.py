@@ -47,6 +47,7 @@ from ..model.problem import StaticsProblem
 from ..result import Computed
 from ..space.force_space import check_bounded, check_feasible
 from ..space.projection import distance_to_S, l1_nearest
+from ..streams import chain_generators, restored_generator
 from .driver import Stop, check_target, run_walk
 from .ensemble import Ensemble
 
@@ -121,8 +122,8 @@ class _Walk:
     """The relax walk as a walk of :func:`forcespace.sampling.driver.run_walk`.
 
     ``chains`` independent walks from the same relaxed start, sample i drawn by chain
-    i % chains; chain c kicks with its own stream (one chain: numpy's generator seeded
-    by ``seed``, as the walk always did; more: ``SeedSequence(seed).spawn(chains)``)."""
+    i % chains; chain c kicks with its own stream
+    (:func:`forcespace.streams.chain_generators`)."""
 
     sampler = "relax"
 
@@ -140,19 +141,13 @@ class _Walk:
         self.tolerance_description = (f"every sample has max violation <= {tol} relative to "
                                       "<Fn> (checked after relaxation)")
 
-    def _streams(self):
-        if self.chains == 1:
-            return [np.random.default_rng(self.seed)]
-        return [np.random.default_rng(s) for s in np.random.SeedSequence(self.seed)
-                .spawn(self.chains)]
-
     def set_up(self):
         """Relax the jammed network (or ``start``): every chain's first point."""
         p = self.problem
         x0 = p.x_jammed if self.start is None else np.asarray(self.start, float)
         x, res, projected = self.relaxer.relax(x0, self.tol, self.chunk, self.max_sweeps,
                                                self.seed)
-        self.x, self.rng = np.tile(x, (self.chains, 1)), self._streams()
+        self.x, self.rng = np.tile(x, (self.chains, 1)), chain_generators(self.seed, self.chains)
         self.sweeps_total, self.projected = int(res.sweeps), []
         arrays, attrs = self.state(0)
         attrs["start_projected"] = int(projected)
@@ -172,9 +167,9 @@ class _Walk:
         try:
             states = json.loads(stored.checkpoint_attrs["rng_state"])
             states = [states] if self.chains == 1 else states
-            self.rng = [np.random.default_rng() for _ in range(self.chains)]
-            for g, st in zip(self.rng, states, strict=True):
-                g.bit_generator.state = st
+            if len(states) != self.chains:
+                raise ValueError("one saved generator state per chain")
+            self.rng = [restored_generator(st) for st in states]
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(path, "checkpoint/rng_state", f"unreadable ({exc}); the "
                              "checkpoint is corrupt: delete the file to restart") from None

@@ -14,6 +14,7 @@ from scipy.optimize import linprog
 from ..errors import InputError
 from ..model.problem import StaticsProblem
 from ..result import Computed
+from ..streams import direction_generator
 from .force_space import ForceSpace
 
 
@@ -48,7 +49,7 @@ class Section(Computed):
         x0 = problem.x_jammed if x0 is None else np.asarray(x0, float)
         x0 = S.affine_point + N @ (N.T @ (x0 - S.affine_point))     # onto the hull
         if directions is None:
-            c = np.random.default_rng(self.seed).normal(size=(N.shape[1], 2))
+            c = direction_generator(self.seed).normal(size=(N.shape[1], 2))
             D = np.linalg.qr(N @ c)[0]
         else:
             D = np.linalg.qr(N @ (N.T @ np.asarray(directions, float)))[0]

@@ -34,6 +34,7 @@ from scipy.optimize import linprog
 from scipy.sparse.csgraph import connected_components
 
 from .. import config
+from ..streams import direction_generator
 from .loads import extreme_point
 
 
@@ -374,5 +375,5 @@ def extreme_pair(problem, analysis, seed: int = 0):
     difference is generically non-zero on every varying contact (the paper's Fig. 2)."""
 
     N = analysis.affine_basis
-    c = N @ np.random.default_rng(seed).normal(size=N.shape[1])
+    c = N @ direction_generator(seed).normal(size=N.shape[1])
     return extreme_point(problem, -c), extreme_point(problem, c)

@@ -1,7 +1,10 @@
-"""Every random stream of the engine, derived from the scene seed in this one place.
+"""Every random stream of forcespace, derived from a seed in this one place.
 
-Nothing else in :mod:`forcespace.engine` seeds a generator. The derivations are the
-historical ones, kept bit for bit (every packing made so far is reproducible):
+Nothing else in :mod:`forcespace` seeds a generator (a test walks the sources). The
+derivations are the historical ones, kept bit for bit: every packing, sample stream and
+section made so far is reproducible from its seed.
+
+The engine (the scene seed):
 
 * **placement** -- :func:`placement_rng`: ``numpy.random.default_rng(seed)`` (PCG64)
   draws, in this order, the radii (uniform in [radius_min, radius_max], n values), the
@@ -21,12 +24,25 @@ historical ones, kept bit for bit (every packing made so far is reproducible):
   every sweep (Fisher-Yates).
 
 The static solve and the push use the scene seed as their relaxation seed.
+
+Sampling and the analysis of S (the run's ``seed``):
+
+* **hit-and-run chains** -- :func:`chain_states`: chain c walks with the xoshiro256
+  state ``SeedSequence(seed).spawn(chains)[c].generate_state(4, uint64)``.
+* **relax-walk kicks** -- :func:`chain_generators`: one chain: ``default_rng(seed)``;
+  more: ``default_rng`` of each of ``SeedSequence(seed).spawn(chains)``.
+* **tracked projections** -- :func:`projection_generator`: the random directions the
+  convergence diagnostics project samples on, ``default_rng(SeedSequence([seed,
+  0x5EED]))`` (the same for every run and sampler at seed 0).
+* **random directions of S** -- :func:`direction_generator`: ``default_rng(seed)``, the
+  Fig. 3 section's plane and the generic combination of null vectors that finds the
+  contacts varying in S.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..kernels import kernel
+from .kernels import kernel
 
 SEED_MODULUS = 2**31 - 1       # step and chunk seeds are reduced modulo this prime
 STEP_STRIDE = 7919             # seed distance of consecutive steps of a window
@@ -89,3 +105,37 @@ def shuffle(order, m, state):
         order[s] = order[q]
         order[q] = tmp
     return state
+
+
+# ---- sampling and the analysis of S ------------------------------------------------------
+
+def chain_states(seed: int, n_chains: int) -> np.ndarray:
+    """Independent xoshiro256 states (n_chains, 4) uint64 of hit-and-run's chains."""
+    ss = np.random.SeedSequence(seed)
+    return np.array([c.generate_state(4, dtype=np.uint64) for c in ss.spawn(n_chains)],
+                    dtype=np.uint64)
+
+
+def chain_generators(seed: int, n_chains: int) -> list:
+    """The relax walk's kick generators, one per chain (one chain: ``default_rng(seed)``,
+    the stream of every single-chain walk made so far)."""
+    if n_chains == 1:
+        return [np.random.default_rng(seed)]
+    return [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(n_chains)]
+
+
+def restored_generator(state: dict) -> np.random.Generator:
+    """A PCG64 generator continuing from a saved ``bit_generator.state``."""
+    g = np.random.default_rng()
+    g.bit_generator.state = state
+    return g
+
+
+def projection_generator(seed: int) -> np.random.Generator:
+    """The generator of the diagnostics' tracked random projections."""
+    return np.random.default_rng(np.random.SeedSequence([seed, 0x5EED]))
+
+
+def direction_generator(seed: int) -> np.random.Generator:
+    """The generator of random directions in S (sections, generic null combinations)."""
+    return np.random.default_rng(seed)
