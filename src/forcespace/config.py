@@ -12,6 +12,8 @@ threshold (e.g. force the sparse path on a small problem) for one run.
 # ---- contacts and packings -----------------------------------------------------------
 FORCE_BEARING = 1e-9        # [<Fn>] a contact with fn above this carries load; a disk with
                             # no such contact is a rattler (excluded from z and from S)
+FN_ROUND_OFF = 1e-6         # [1] a stored normal force below -FN_ROUND_OFF x mean |fn| is
+                            # tension (a file edited or negated), not the solver's round-off
 
 # ---- linear algebra of S (ranks, null spaces) ------------------------------------------
 RANK_TOL = 1e-10            # [1] singular value s counts when s > RANK_TOL * s_max * max(shape)

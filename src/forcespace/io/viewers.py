@@ -144,7 +144,7 @@ def ovito_particles(packing):
     (table dict of (n + w,) columns id, type, x, y, radius, rattler, body; id1 (Nc,),
     id2 (Nc,), image (Nc,) x-image of id2 relative to id1 after wrapping)."""
     p = packing
-    n, nc = p.n_disks, p.n_contacts
+    n = p.n_disks
     shift = np.floor(p.x / p.width) if p.periodic_x else np.zeros(n)
     x = p.x - shift * p.width
     if p.periodic_x:

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .. import config
 from ..errors import InputError
 from .scene import parse_scene_text
 from .walls import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES  # noqa: F401 (re-exported)
@@ -306,17 +307,14 @@ def contact_sums(p: Packing, fn, ft, contacts=None, external: bool = False):
     return force, torque
 
 
-FN_ROUND_OFF = 1e-6    # fn below -FN_ROUND_OFF * mean |fn| is tension, not round-off
-
-
 def check_force_signs(p: Packing, source="packing") -> Packing:
-    """InputError unless every normal force is >= 0 up to round-off (FN_ROUND_OFF of the
-    mean |fn|): contacts push. Checked on every read of a packing file (a file whose
+    """InputError unless every normal force is >= 0 up to round-off
+    (``config.FN_ROUND_OFF`` of the mean |fn|): contacts push. Checked on every read of a packing file (a file whose
     forces were negated, or edited, is refused); a packing built in memory may carry
     any trial forces."""
     fn = np.asarray(p.fn, float)
     if fn.size:
-        floor = -FN_ROUND_OFF * float(np.abs(fn).mean())
+        floor = -config.FN_ROUND_OFF * float(np.abs(fn).mean())
         if fn.min() < floor:
             k = int(np.argmin(fn))
             raise InputError(source, f"forces[{k}, 0]", "normal forces must be >= 0 (contacts "
