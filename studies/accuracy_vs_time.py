@@ -38,13 +38,11 @@ import math  # noqa: E402
 import shutil  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
-from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench import tile  # noqa: E402
+from forcespace import read_packing  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "out"
@@ -196,8 +194,7 @@ def packing_cost(st: dict) -> dict:
 
 def _load(name):
     """(packing, its plate S) of studies/packings/NAME.h5."""
-    from forcespace.model.packing import Packing
-    from forcespace.model.problem import plate_problem
+    from forcespace import plate_problem
     p = read_packing(HERE / "packings" / f"{name}.h5")
     return p, plate_problem(p)
 

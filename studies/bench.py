@@ -13,7 +13,6 @@ shared); absolute rates carry the machine's noise.
 """
 from __future__ import annotations
 
-import itertools
 import json
 import platform
 import sys
@@ -23,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from forcespace import __version__
+from forcespace import __version__, read_packing
 from forcespace.plot import save_figure
 from forcespace.engine.protocol import build_packing, make_bodies, row_order, static_solve
 from forcespace.model.packing import Packing
@@ -104,11 +103,8 @@ def scaling(p: Packing, tiles=(1, 5, 10, 25), sample_tiles=(1, 3, 6), height=28.
     (everything here is single threaded); the growth exponent is the slope of
     log CPU time against log n over the largest two sizes.
     """
-    from forcespace.sampling.hit_and_run import HitAndRun
-    from forcespace.io.h5 import MemoryFile
+    from forcespace import ForceSpace, HitAndRun, slice_problem
     from forcespace.space.structure import domains
-    from forcespace.space.force_space import ForceSpace
-    from forcespace.model.problem import slice_problem
 
     def clock():
         return time.process_time(), time.perf_counter()
@@ -129,7 +125,7 @@ def scaling(p: Packing, tiles=(1, 5, 10, 25), sample_tiles=(1, 3, 6), height=28.
         if k not in sample_tiles or not an.dim:
             continue
         c0, w0 = clock()
-        res = HitAndRun(n_samples, seed=seed).compute(prob, output=MemoryFile("<bench>"), analysis=an).summary()
+        res = HitAndRun(n_samples, seed=seed).compute(prob, analysis=an).summary()
         c1, w1 = clock()
         d = res["dim_S"]
         ess = min(v for v in (res.get("ess_sqdev"), res.get("ess_projections_min"))
@@ -204,26 +200,26 @@ def analysis_scaling(p: Packing, tiles=(1, 5, 10, 25), old_max_tiles=10, height=
     """
     import os
 
-    from forcespace import measures, polytope
-    from forcespace.model.problem import slice_problem
+    from forcespace import ForceSpace, config, slice_problem
+    from forcespace.space.structure import domains
 
-    default = polytope.SWEEP_MIN_COLUMNS
+    default = config.SWEEP_MIN_COLUMNS
 
     def clock():
         return time.process_time(), time.perf_counter()
 
     def run(q, threshold):
-        polytope.SWEEP_MIN_COLUMNS = measures.SWEEP_MIN_COLUMNS = threshold
+        config.SWEEP_MIN_COLUMNS = threshold     # read at call time by space and linalg
         try:
             c0, w0 = clock()
             prob = slice_problem(q, height)
             c1, w1 = clock()
             an = ForceSpace(ranges=False).compute(prob)
             c2, w2 = clock()
-            doms = measures.domains(prob, an)
+            doms = domains(prob, an)
             c3, w3 = clock()
         finally:
-            polytope.SWEEP_MIN_COLUMNS = measures.SWEEP_MIN_COLUMNS = default
+            config.SWEEP_MIN_COLUMNS = default
         t = {"build_cpu_s": c1 - c0, "analyze_cpu_s": c2 - c1, "domains_cpu_s": c3 - c2,
              "total_cpu_s": c3 - c0, "total_wall_s": w3 - w0}
         return prob, an, doms, t
@@ -305,7 +301,12 @@ def main():
     print("exact analysis, dense against sparse path ...", flush=True)
     results["analysis_dense_vs_sparse"] = analysis_scaling(packings[0.1])
 
-    (OUT / "bench.json").write_text(json.dumps(results, indent=2))
+    path = OUT / "bench.json"          # other sections (engine, analysis, ...) are kept
+    data = json.loads(path.read_text()) if path.is_file() else {}
+    data.update(results)
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(json.dumps(data, indent=2, default=float))
+    tmp.replace(path)
     plot(results)
     print(f"wrote {OUT / 'bench.json'}, {OUT / 'bench.png'} (+ .pdf)")
 

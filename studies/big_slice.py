@@ -18,7 +18,7 @@ import pstats
 import time
 from pathlib import Path
 
-from forcespace import Packing, slice_problem
+from forcespace import read_packing, slice_problem
 from forcespace.sampling.hit_and_run import HitAndRun
 from forcespace.space.structure import domains
 from forcespace.io.h5 import atomic_path

@@ -77,7 +77,6 @@ def render(directory, png, size=(1000, 1070)) -> Path:
     # contacts: tubes of radius fn / max * 0.25 R, coloured by mobilisation
     contacts = _reader(d / "contacts.vtp").GetOutput()
     fn = vtk_to_numpy(contacts.GetCellData().GetArray("fn"))
-    mob = vtk_to_numpy(contacts.GetCellData().GetArray("mobilisation"))
     width = numpy_to_vtk(np.ascontiguousarray(0.25 * np.abs(fn) / np.abs(fn).max()), deep=True)
     width.SetName("width")
     contacts.GetCellData().AddArray(width)

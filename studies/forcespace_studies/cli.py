@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+from pathlib import Path
 
 DESCRIPTION = {
     "fig1": "eta and z against mu, both samplers (the paper's Fig. 1)",
@@ -61,7 +62,7 @@ def register(sub) -> None:
     r.set_defaults(func=cmd_report)
 
 
-def _study_dir(args) -> "Path":
+def _study_dir(args) -> Path:
     """The study directory, checked before any work (a file, device, symlink, read-only
     place, another study's directory, or a directory that is not a study's is refused)."""
     import json

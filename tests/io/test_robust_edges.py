@@ -1,6 +1,5 @@
 """Files edited by hand, broken files and late failures (issue 21): each is one line,
 names the file and the field, and comes before any work."""
-import os
 import shutil
 
 import h5py
@@ -134,6 +133,8 @@ def test_locks_are_filelock_not_fcntl():
     from paths import ROOT
     for d in ("src", "studies", "adapters"):
         for f in (ROOT / d).rglob("*.py"):
+            if "out" in f.relative_to(ROOT / d).parts[:1]:
+                continue            # studies/out: scratch (e.g. old sources a bench exports)
             assert "import fcntl" not in f.read_text(), f
 
 

@@ -207,7 +207,6 @@ def test_files_record_provenance_and_a_newer_format_is_refused(tmp_path, capsys)
 def test_ensemble_read_without_samples_and_fingerprint_tolerates_last_bits():
     import forcespace as fs
     from ensemble_cases import grooves
-    from forcespace.io.ensemble_file import fingerprint, read_file
     _, prob = grooves([0.5, 0.6], 0.3)
     fs.HitAndRun(n=8, seed=1).compute(prob, output="e.h5")
     head = read_file("e.h5", samples=False).ensemble

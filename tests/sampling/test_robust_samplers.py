@@ -1,5 +1,4 @@
 """Samplers off the seed-1 path: stalls, the plate problem, lost samples, bad options."""
-from pathlib import Path
 
 import numpy as np
 import pytest

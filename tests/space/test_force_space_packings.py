@@ -19,7 +19,6 @@ from forcespace.model.problem import full_problem, plate_problem, slice_problem
 def quick_packing():
     from forcespace.engine.protocol import build_packing
     from forcespace.model.scene import load_scene
-    from pathlib import Path
     scene = load_scene("quick")
     return build_packing(scene.with_overrides(**{"disks.n": 20}), show_progress=False)
 

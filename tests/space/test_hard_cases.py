@@ -4,7 +4,6 @@ Each case either converges to its stated tolerance, checked against the exact LP
 answer (S is non-empty for the packing's own forces), or ends with one clear
 error. Measured numbers are in the issue note; the asserts are the contract.
 """
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -1,7 +1,6 @@
 """The exact analysis of S on packings off the seed-1 path: force scale, mu = 0, round-off."""
 import dataclasses
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
