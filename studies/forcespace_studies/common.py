@@ -20,7 +20,7 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
     whose packings are read instead when they have it. ``overrides``: further scene
     keys (``jam`` style, e.g. ``{"physics__plate_mu": mu}``) that must be a function
     of (scene, mu, seed, n_disks), since the file name does not record them.
-    An interrupted compression resumes from ``OUT/packings/NAME.checkpoint.npz``
+    An interrupted compression resumes from ``OUT/packings/NAME.checkpoint.h5``
     (saved every 30 s; bit-identical to an uninterrupted run), so a study stopped
     in the middle of a long jam loses at most half a minute of it.
     Returns (Packing, jam wall time [s] of this call, 0 when it was reused).
@@ -37,7 +37,7 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
             return read_packing(path), 0.0
         t0 = time.perf_counter()
         p = jam(scene, physics__mu=mu, scene__seed=seed,
-                disks__n=n_disks, checkpoint=path.with_name(path.name + ".checkpoint.npz"),
+                disks__n=n_disks, checkpoint=path.with_name(path.name + ".checkpoint.h5"),
                 **(overrides or {}))
         write_packing(p, path)
         return read_packing(path), time.perf_counter() - t0
@@ -57,15 +57,18 @@ def sampler(name: str, seed: int, cap: int, max_seconds, **options):
                **options)
 
 
-def run_samplers(row: dict, runs, prob, wd, tag: str = "") -> None:
+def run_samplers(row: dict, runs, prob, wd, tag: str = "") -> dict:
     """Run each (name, sampler) of ``runs`` on ``prob`` into ``wd/NAME{tag}.h5`` and add
     to ``row``: eta_NAME (every run's), converged_NAME (rule 4: finished with bulk and
     tail ESS >= 100 and R-hat <= 1.05 on every tracked statistic), n_NAME, ess_NAME,
     rhat_NAME, t_NAME_s, and relax_projected (stalls finished by projection). A run that
-    fails keeps the row: error_NAME says why."""
+    fails keeps the row: error_NAME says why. Returns {name: Ensemble, or None if the
+    run failed}."""
     from forcespace.errors import ForcespaceError
 
+    out = {}
     for name, smp in runs:
+        out[name] = None
         t0 = time.perf_counter()
         try:
             ens = smp.compute(prob, output=Path(wd) / f"{name}{tag}.h5").ensemble
@@ -83,6 +86,8 @@ def run_samplers(row: dict, runs, prob, wd, tag: str = "") -> None:
                     f"stop_{name}": smp.message, f"t_{name}_s": time.perf_counter() - t0})
         if name == "relax":
             row["relax_projected"] = int(smp.projected.size)
+        out[name] = ens
+    return out
 
 
 def determinate(row: dict, names=SAMPLERS) -> None:

@@ -25,7 +25,7 @@ from .report import SAMPLERS as LABELS, Verdict, write_csv, write_section
 MUS = sorted({float(f"{m:.3g}") for m in np.logspace(-4, 1, 15)}
              | {0.02, 0.045, 0.1, 0.22, 0.5})   # 15 log values and 5 more around the peak
 QUICK = dict(scene="quick", n_disks=30, slice_height=12.0, mus=(0.01, 0.1, 1.0), seeds=(1, 2),
-             cap=200, max_seconds=None, squares=1)
+             cap=800, max_seconds=None, squares=1)
 FULL = dict(scene="paper", n_disks=200, slice_height=28.0, mus=tuple(MUS),
             seeds=tuple(range(1, 11)), cap=3000, max_seconds=900.0, squares=5)
 SMALL_MU = 0.01        # the "small friction" range of the paper's claims (fits, 2Nc - 3n)

@@ -44,3 +44,20 @@ def test_section_cli_and_refusals(tmp_path, capsys):
     _, prob = grooves([THETAS[0]], MU)                  # dim S = 1: no plane
     with pytest.raises(fs.InputError, match="dim S"):
         fs.Section().compute(prob)
+
+
+def test_where_x0_sits_in_the_section_of_two_grooves():
+    # the rectangle's sides are L_k |u_k| (above): from its Chebyshev centre the nearest
+    # edge is half the shorter side away (= the Chebyshev radius); from a point on the
+    # edge, nothing; the ratio to the section's extent is at most 1/2
+    _, prob = grooves(THETAS, MU)
+    sides = [np.subtract(*groove_interval(th, MU)[::-1]) * np.sqrt(2) / np.cos(th)
+             for th in THETAS]
+    an = fs.ForceSpace().compute(prob)
+    sec = fs.Section(n=3, seed=3).compute(prob, x0=an.centre, analysis=an)
+    assert sec.x0_edge_distance == pytest.approx(min(sides) / 2, rel=1e-6)
+    assert sec.x0_edge_distance == pytest.approx(an.radius, rel=1e-6)
+    assert 0 < sec.x0_edge_ratio <= 0.5
+    on_edge = sec.x0 + sec.s_range[1] * sec.d1              # the plane's extreme along d1
+    edge = fs.Section(n=3, seed=3).compute(prob, x0=on_edge, analysis=an)
+    assert edge.x0_edge_distance < 1e-9 * min(sides) and edge.x0_edge_ratio < 1e-9

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linprog
 
+from .. import config
 from ..errors import InputError
 from ..model.problem import StaticsProblem
 from ..result import Computed
@@ -21,11 +22,17 @@ from .force_space import ForceSpace
 class Section(Computed):
     """A cross-section of S through x0 (compute object).
 
-    ``Section(n=201, seed=0, margin=0.3).compute(problem, x0=None, directions=None)``:
-    the plane through ``x0`` (2m,) [F0] (default the jammed network, moved onto the
-    affine hull) along ``directions`` ((2m, 2), default two random orthonormal
-    directions of the hull, from ``seed``), on an n x n grid covering S's extent in
-    the plane plus ``margin`` of it on every side.
+    ``Section(n=201, seed=0, margin=0.3).compute(problem, x0=None, directions=None,
+    analysis=None)``: the plane through ``x0`` (2m,) [F0] (default the jammed network,
+    moved onto the affine hull) along ``directions`` ((2m, 2), default two random
+    orthonormal directions of the hull, from ``seed``), on an n x n grid covering S's
+    extent in the plane plus ``margin`` of it on every side. ``analysis``: the
+    problem's ForceSpace, if already computed.
+
+    Where x0 sits in the section: ``x0_edge_distance`` [F0], its distance to the
+    section's boundary, and ``x0_edge_ratio``, that distance over the section's extent
+    (the larger of its widths along d1 and d2): about 0 on the edge, typically ~0.1-0.3
+    for a point inside.
     """
 
     def __init__(self, n: int = 201, seed: int = 0, margin: float = 0.3):
@@ -33,8 +40,9 @@ class Section(Computed):
             raise InputError("section", "n", "must be an integer in [3, 2001]", got=n)
         self.n, self.seed, self.margin = n, seed, float(margin)
 
-    def compute(self, problem: StaticsProblem, x0=None, directions=None) -> "Section":
-        S = ForceSpace().compute(problem)
+    def compute(self, problem: StaticsProblem, x0=None, directions=None,
+                analysis=None) -> "Section":
+        S = analysis if analysis is not None else ForceSpace().compute(problem)
         if not S.success:
             raise InputError(problem.source or "problem", "S", f"not analysed: {S.message}")
         if not S.feasible:
@@ -108,6 +116,18 @@ class Section(Computed):
         """Fraction of the grid inside S."""
         return float((self.violation <= 0).mean())
 
+    @property
+    def x0_edge_distance(self) -> float:
+        """Distance [F0] from x0 to the boundary of the section (0 when x0 is on it or
+        outside): the smallest slack of an inequality over its gradient in the plane,
+        over the inequalities that vary in the plane."""
+        return self._get("x0_edge_distance")
+
+    @property
+    def x0_edge_ratio(self) -> float:
+        """``x0_edge_distance`` over the section's extent (the larger width along d1, d2)."""
+        return self._get("x0_edge_ratio")
+
     def plot(self, ax=None, title: str | None = None):
         """White inside S, grey by Coulomb violation outside (log colour scale, its bar
         beside the plot), x0 marked; axes in F0 with at most five ticks each (an offset
@@ -164,6 +184,11 @@ def _grid(problem, x0, d1, d2, n, margin) -> dict:
         ext.append(float(np.dot(c, r.x)) if r.status == 0 else 0.0)
     s_range, t_range = (-ext[1], ext[0]), (-ext[3], ext[2])
     span = max(s_range[1] - s_range[0], t_range[1] - t_range[0], 1e-12 * problem.force_scale)
+    grad = np.linalg.norm(H, axis=1)
+    row_norm = np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel()) if hasattr(G, "multiply") \
+        else np.linalg.norm(G, axis=1)
+    in_plane = grad > config.FLAT_ROW * row_norm          # the rows the plane moves
+    edge = float((np.maximum(-g0[in_plane], 0.0) / grad[in_plane]).min(initial=np.inf))
     pad = margin * span
     s = np.linspace(s_range[0] - pad, s_range[1] + pad, n)
     t = np.linspace(t_range[0] - pad, t_range[1] + pad, n)
@@ -172,4 +197,5 @@ def _grid(problem, x0, d1, d2, n, margin) -> dict:
     worst = np.maximum(viol.max(axis=0), 0.0) / problem.force_scale
     return {"s": s, "t": t, "violation": worst.reshape(n, n), "x0": x0, "d1": d1, "d2": d2,
             "s_range": s_range, "t_range": t_range,
-            "x0_violation": float(max(g0.max(initial=0.0), 0.0) / problem.force_scale)}
+            "x0_violation": float(max(g0.max(initial=0.0), 0.0) / problem.force_scale),
+            "x0_edge_distance": edge, "x0_edge_ratio": edge / span}
