@@ -27,7 +27,8 @@ fa.PymunkOptions(iterations=100))`` (pymunk), or ``liggghts.write_deck``,
 Public names:
 
     export(code, packing, directory, options=None, y_range=None, top="plate", **option_kw)
-    run(code, directory, binary=None, timeout=None, progress=None) -> status dict
+    run(code, directory, binary=None, timeout=None, progress=None, show_progress=False)
+                                      -> status dict
     import_run(code, directory, out_path=None) -> soft Packing
     load_soft(code, directory) -> (soft Packing, rigid Packing)
     make_options(code, options=None, **kw) -> LiggghtsOptions | PymunkOptions

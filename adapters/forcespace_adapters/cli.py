@@ -58,7 +58,8 @@ def _cmd_run(args):
         print(f"  step {step}: max residual {res:.3e} <Fn>", file=sys.stderr)
     st = run(args.code, args.directory, binary=getattr(args, "binary", None),
              timeout=getattr(args, "timeout", None),
-             progress=progress if args.code == "pymunk" and args.verbose else None)
+             progress=progress if args.code == "pymunk" and args.verbose else None,
+             show_progress=args.code == "liggghts" and not args.quiet)
     print_json(st)
     if st.get("converged"):
         return 0
@@ -160,6 +161,7 @@ def register(subparsers):
     rl.add_argument("--binary", default=None,
                     help="LIGGGHTS executable (default $FORCESPACE_LIGGGHTS or liggghts)")
     rl.add_argument("--timeout", type=float, default=None, help="seconds before giving up")
+    rl.add_argument("--quiet", action="store_true", help="no progress bar")
     rp = rus.add_parser("pymunk", help="run the pymunk simulation")
     rp.add_argument("-v", "--verbose", action="store_true", help="print progress")
     for p in (rl, rp):

@@ -439,11 +439,15 @@ def find_binary(binary: str | None = None) -> str:
     return path
 
 
-def run_deck(directory, binary: str | None = None, timeout: float | None = None) -> dict:
+def run_deck(directory, binary: str | None = None, timeout: float | None = None,
+             show_progress: bool = False) -> dict:
     """Run LIGGGHTS on a deck directory; write and return ``status.json``.
 
-    Output is unbuffered (``stdbuf -o0``) with ``-echo screen`` into
-    ``screen.txt``; on failure the ERROR lines are raised as LiggghtsError.
+    Output is unbuffered (``stdbuf -o0``) with ``-echo screen`` into ``screen.txt``; on
+    failure the ERROR lines are raised as LiggghtsError. ``show_progress``: a bar of
+    LIGGGHTS' steps against the deck's step cap, read from its thermo output, with the
+    residual beside its tolerance (the run usually stops at convergence long before the
+    cap, so the bar's ETA is an upper bound).
     """
     d = Path(directory)
     if not (d / "in.liggghts").is_file():
@@ -455,14 +459,7 @@ def run_deck(directory, binary: str | None = None, timeout: float | None = None)
     if shutil.which("stdbuf"):
         cmd = ["stdbuf", "-o0", "-e0"] + cmd
     t0 = time.perf_counter()
-    with open(d / "screen.txt", "w") as out:
-        try:
-            proc = subprocess.run(cmd, cwd=d, stdout=out, stderr=subprocess.STDOUT,
-                                  timeout=timeout, stdin=subprocess.DEVNULL)
-            rc = proc.returncode
-        except subprocess.TimeoutExpired:
-            raise LiggghtsError(f"{d}: LIGGGHTS exceeded the time limit of {timeout} s "
-                                f"(see {d / 'screen.txt'})") from None
+    rc = _run_streaming(cmd, d, timeout, _deck_progress(d, show_progress))
     wall = time.perf_counter() - t0
     text = (d / "screen.txt").read_text(errors="replace")
     errors = [ln.strip() for ln in text.splitlines() if "ERROR" in ln]
@@ -478,6 +475,66 @@ def run_deck(directory, binary: str | None = None, timeout: float | None = None)
     tmp.write_text(json.dumps(status, indent=1))
     os.replace(tmp, d / "status.json")
     return status
+
+
+def _run_streaming(cmd, d: Path, timeout, on_line) -> int:
+    """Run ``cmd`` in ``d``, its output into ``d/screen.txt`` line by line, each line also
+    to ``on_line``; LiggghtsError after ``timeout`` seconds (the process killed)."""
+    deadline = None if timeout is None else time.monotonic() + timeout
+    with open(d / "screen.txt", "w") as out, subprocess.Popen(
+            cmd, cwd=d, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL, text=True, errors="replace") as proc:
+        timer = None
+        if deadline is not None:
+            import threading
+            timer = threading.Timer(timeout, proc.kill)
+            timer.start()
+        try:
+            for line in proc.stdout:
+                out.write(line)
+                on_line(line)
+            rc = proc.wait()
+        finally:
+            if timer is not None:
+                timer.cancel()
+            on_line(None)
+    if deadline is not None and time.monotonic() >= deadline and rc != 0:
+        raise LiggghtsError(f"{d}: LIGGGHTS exceeded the time limit of {timeout} s "
+                            f"(see {d / 'screen.txt'})")
+    return rc
+
+
+def _deck_progress(d: Path, show: bool):
+    """A line handler that moves a progress bar along the thermo lines (step, atoms, ke,
+    max residual, ...) of a deck's run; ``None`` closes the bar."""
+    from forcespace.progress import progress
+
+    try:
+        meta = json.loads((d / "deck.json").read_text())
+    except (OSError, ValueError):
+        meta = {}
+    cap = meta.get("options", {}).get("max_steps")
+    tol, scale = meta.get("tolerance_abs"), meta.get("force_scale") or 1.0
+    bar = progress(total=cap, desc="LIGGGHTS steps (ETA: to the step cap)", unit="step",
+                   disable=not show)
+
+    def on_line(line):
+        if line is None:
+            bar.close()
+            return
+        parts = line.split()
+        if len(parts) >= 4 and parts[0].isdigit():
+            try:
+                step, res = int(parts[0]), float(parts[3])
+            except ValueError:
+                return
+            bar.update(max(step - bar.n, 0))
+            if tol:
+                # the live residual of the disks (damping in it); convergence is
+                # decided on the quenched one and the plate's load as well
+                bar.set_postfix_str(f"live disk residual {res / scale:.1e} / tolerance "
+                                    f"{tol / scale:.1e} <Fn>", refresh=False)
+    return on_line
 
 
 def _read_dump_blocks(path, section: str) -> dict:

@@ -112,16 +112,18 @@ def export(code: str, packing, directory, options=None, y_range=None,
     return d
 
 
-def run(code: str, directory, binary=None, timeout=None, progress=None) -> dict:
+def run(code: str, directory, binary=None, timeout=None, progress=None,
+        show_progress: bool = False) -> dict:
     """Run ``code`` on a run directory made by :func:`export`; returns its status dict
     (``converged``, ``steps``, ...). ``binary``/``timeout``: LIGGGHTS executable and
-    seconds; ``progress(step, residual)``: pymunk progress callback."""
+    seconds; ``progress(step, residual)``: pymunk progress callback; ``show_progress``:
+    LIGGGHTS' steps and residual as a progress bar on stderr."""
     meta = _run_json(directory)
     if meta["code"] != code:
         raise InputError(directory, "run.json code", f"this directory is for {meta['code']}", got=code)
     d = check_output_dir(directory)
     if code == "liggghts":
-        return liggghts.run_deck(d, binary=binary, timeout=timeout)
+        return liggghts.run_deck(d, binary=binary, timeout=timeout, show_progress=show_progress)
     rigid = read_packing(d / "rigid.h5")
     prob = soft_problem(rigid, meta["y_range"], top=meta.get("top", "plate"), source=d / "rigid.h5")
     soft, info = simulate(prob, PymunkOptions(**meta["options"]), progress)

@@ -116,3 +116,20 @@ def test_snapshots_trace_the_run_to_its_final_state(packing, tmp_path):
     assert dist[-1] < dist[0]                     # settling brings the network towards S
     assert dist[-1] == pytest.approx(final, rel=0.1, abs=1e-6)   # last dump ~ final state
     assert not snaps[0][3]["converged"]
+
+
+def test_a_run_shows_its_steps_and_residual_and_a_time_limit_kills_it(packing, tmp_path,
+                                                                      capsys):
+    # the bar follows LIGGGHTS' thermo lines: it ends at the run's own step count, with
+    # the residual beside its tolerance; the log is still written line by line
+    prob = soft_problem(packing)
+    d = tmp_path / "deck"
+    L.write_deck(prob, d, L.LiggghtsOptions(kn=1e3, max_steps=400_000))
+    st = L.run_deck(d, timeout=120, show_progress=True)
+    err = capsys.readouterr().err
+    assert "LIGGGHTS steps" in err and "/ tolerance" in err and "<Fn>" in err
+    shown = [int(s) for s in __import__("re").findall(r"(\d+)/400000", err)]
+    assert shown and max(shown) <= st["steps"] + 1 and max(shown) >= 0.9 * st["steps"]
+    assert "FORCESPACE_DONE" in (d / "screen.txt").read_text()
+    with pytest.raises(L.LiggghtsError, match="time limit of 0.2 s"):
+        L.run_deck(d, timeout=0.2)
