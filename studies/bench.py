@@ -24,7 +24,7 @@ import numpy as np
 
 from forcespace import __version__, read_packing
 from forcespace.plot import save_figure
-from forcespace.engine.protocol import build_packing, make_bodies, row_order, static_solve
+from forcespace.engine.protocol import build_packing, make_bodies, static_solve
 from forcespace.model.packing import Packing
 from forcespace.model.scene import load_scene
 
@@ -51,24 +51,6 @@ def tile(p: Packing, k: int) -> Packing:
     return replace(p, x=x, y=np.tile(p.y, k), r=np.tile(p.r, k), width=k * p.width,
                    top_force=k * p.top_force, a=np.concatenate(a_blocks),
                    b=np.concatenate(b_blocks), image=np.concatenate(img_blocks), **fields)
-
-
-def renumbered(p: Packing) -> Packing:
-    """The packing with its disks numbered row by row (rows one largest diameter high, x
-    increasing) and its contacts sorted by their lower disk index: the memory order the
-    engine uses with ``solver.sweep_block`` > 0 (same geometry and forces)."""
-    n = p.n_disks
-    perm = row_order(p.x, p.y, p.r)
-    new = np.empty(n, np.int64)
-    new[perm] = np.arange(n)
-    a = np.where(p.a >= 0, new[np.maximum(p.a, 0)], p.a)
-    b = np.where(p.b >= 0, new[np.maximum(p.b, 0)], p.b)
-    key = np.where((a >= 0) & (b >= 0), np.minimum(a, b), np.maximum(a, b))
-    order = np.argsort(key, kind="stable")
-    dens = p.density if np.isscalar(p.density) else np.asarray(p.density)[perm]
-    return replace(p, x=p.x[perm], y=p.y[perm], r=p.r[perm], density=dens, a=a[order],
-                   b=b[order], **{k: getattr(p, k)[order]
-                                  for k in ("normal", "point", "image", "gap", "fn", "ft")})
 
 
 def static_convergence(scene, packing: Packing, seed=1):
