@@ -27,7 +27,7 @@ are coordinate (CHRR, Haraldsdottir et al. 2017): O(p) per step with H in
 Fortran order, thinning d^2 steps, burn-in 10 thinning intervals per chain.
 Nothing is adapted while samples are kept.
 
-Random numbers: xoshiro256** per chain inside numba (state 4 x uint64),
+Random numbers: xoshiro256** per chain inside numba (xoshiro.py, state 4 x uint64),
 saved in the checkpoint so that a resumed run continues the same streams.
 
 Diagnostics: split R-hat and a bulk effective sample size (Geyer initial
@@ -51,47 +51,13 @@ from ..streams import chain_states
 from .driver import Stop, check_target, run_walk
 from .ensemble import Ensemble
 from .rounding import mve_rounding
+from .xoshiro import normal, seed_states, uniform
 
 
 
 # ----------------------------------------------------------------------------
 # kernels
 # ----------------------------------------------------------------------------
-@kernel
-def _rotl(x, k):
-    return (x << np.uint64(k)) | (x >> np.uint64(64 - k))
-
-
-@kernel
-def _next(s):
-    """xoshiro256** step on state s (4,) uint64; returns a uint64."""
-    result = _rotl(s[1] * np.uint64(5), 7) * np.uint64(9)
-    t = s[1] << np.uint64(17)
-    s[2] ^= s[0]
-    s[3] ^= s[1]
-    s[1] ^= s[2]
-    s[0] ^= s[3]
-    s[2] ^= t
-    s[3] = _rotl(s[3], 45)
-    return result
-
-
-@kernel
-def _uniform(s):
-    """Uniform double in [0, 1)."""
-    return float(_next(s) >> np.uint64(11)) * (1.0 / 9007199254740992.0)
-
-
-@kernel
-def _normal(s):
-    """Standard normal (Box-Muller, one of the pair)."""
-    u1 = _uniform(s)
-    while u1 <= 0.0:
-        u1 = _uniform(s)
-    u2 = _uniform(s)
-    return np.sqrt(-2.0 * np.log(u1)) * np.cos(2.0 * np.pi * u2)
-
-
 @kernel
 def slack_refresh(d):
     """Steps between exact slack recomputations: 64 up to d = 64, else the power-of-two
@@ -122,14 +88,14 @@ def har_steps(H, s0, w, state, n_steps, coordinate):
         if step % refresh == 0 and step > 0:
             slack = s0 - H @ w
         if coordinate:
-            c = int(_uniform(state) * d)
+            c = int(uniform(state) * d)
             if c >= d:
                 c = d - 1
             hu = H[:, c]                 # a column: contiguous with H in Fortran order
         else:
             nrm = 0.0
             for i in range(d):
-                u[i] = _normal(state)
+                u[i] = normal(state)
                 nrm += u[i] * u[i]
             nrm = np.sqrt(nrm)
             for i in range(d):
@@ -151,7 +117,7 @@ def har_steps(H, s0, w, state, n_steps, coordinate):
             elif h < -1e-300:
                 if sj < tmin * h:
                     tmin = sj / h
-        r = _uniform(state)
+        r = uniform(state)
         if not (np.isfinite(tmin) and np.isfinite(tmax)) or tmax < tmin:
             bad += 1
             continue
