@@ -18,7 +18,10 @@ The public API (``import forcespace as fs``)::
     plate_problem(packing)            the whole packing under a load-controlled plate
     ForceSpace(...).compute(problem)  exact analysis of S: dim, bounded, centre, radius,
                                       ranges, domains, distance(x), plot
-    HitAndRun(n, seed).compute(problem)   uniform samples of S (coordinate hit-and-run)
+    HitAndRun(n, seed).compute(problem)   uniform samples of S (coordinate hit-and-run,
+                                      the reference)
+    BilliardWalk(n, seed).compute(problem)  uniform samples of S (billiard walk: the fast
+                                      sampler at large dim S, e.g. target_ess=100)
     RelaxWalk(n, seed).compute(problem)   the paper's perturb-and-relax walk
     Ensemble, read_ensemble(path)     samples of S: .forces (k, m, 2), .eta, diagnostics
     eta(samples)                      the paper's force ambiguity
@@ -50,7 +53,8 @@ _LAZY = {
     "jam": "engine.protocol",
     "ForceSpace": "space.force_space",
     "Section": "space.section", "Selection": "space.selection",
-    "HitAndRun": "sampling.hit_and_run", "RelaxWalk": "sampling.relax_walk",
+    "HitAndRun": "sampling.hit_and_run", "BilliardWalk": "sampling.billiard",
+    "RelaxWalk": "sampling.relax_walk",
     "Ensemble": "sampling.ensemble",
     "read_packing": "io.packing_file", "write_packing": "io.packing_file",
     "read_ensemble": "io.ensemble_file",

@@ -61,6 +61,9 @@ SPREAD_FLOOR = 1e-8         # [<Fn>] rms spread per contact below which S is num
 ROUNDING_ROW_TOL = 1e-10    # [1] rows of the slack-scaled {A x <= 1} below this x the largest
                             # row norm never bind (contacts that do not vary in S)
 ROUNDING_CENTRED = 1e-3     # [1] Newton decrement at which the John rounding's centre is found
+LEWIS_CENTRED = 1e-6        # [1] half the squared Newton decrement at which the billiard walk's
+                            # Lewis rounding counts its centre as found (exact line search:
+                            # 10-15 Newton steps from the Chebyshev centre at dim 1714)
 MVE_MAX_ROWS = 1500         # [rows] above: John (Lewis-weight) rounding, not the exact MVE
 RELAX_STALL_SWEEPS = 20_000  # [sweeps] relax walk: no 1 % progress in this many is a stall
 RHAT_MAX = 1.05             # [1] chains whose split R-hat (rank-normalised, folded) exceeds

@@ -114,6 +114,10 @@ def cmd_sample(args) -> int:
     if args.sampler == "relax":
         from ..sampling.relax_walk import RelaxWalk
         sampler = RelaxWalk(args.n, tol=args.tol, chains=args.chains or 1, **common)
+    elif args.sampler == "billiard":
+        from ..sampling.billiard import BilliardWalk
+        sampler = BilliardWalk(args.n, chains=args.chains, thin=args.thin,
+                               burn_in=args.burn_in, **common)
     else:
         from ..sampling.hit_and_run import HitAndRun
         sampler = HitAndRun(args.n, chains=args.chains, thin=args.thin, burn_in=args.burn_in,
@@ -223,21 +227,25 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("sample", help="sample S (resumable: rerun to continue)")
     p.add_argument("packing", metavar="PACK.h5")
     add_problem_args(p)
-    p.add_argument("--sampler", choices=("relax", "hit-and-run"), required=True)
+    p.add_argument("--sampler", choices=("relax", "hit-and-run", "billiard"), required=True,
+                   help="hit-and-run (uniform, the reference), billiard (uniform, fast at "
+                        "large dim S) or relax (the paper's walk)")
     p.add_argument("-n", type=int, required=True, help="total number of samples wanted")
     p.add_argument("-o", "--output", required=True, metavar="ENS.h5")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--tol", type=float, default=1e-9,
                    help="relax: max violation of S relative to <Fn> per sample (default 1e-9)")
     p.add_argument("--chains", type=int, default=None,
-                   help="independent chains (hit-and-run default 4, relax default 1)")
+                   help="independent chains (hit-and-run and billiard default 4, relax default 1)")
     p.add_argument("--target-ess", type=float, default=None, metavar="E",
                    help="stop as soon as every tracked statistic has bulk and tail ESS >= E "
                         "and split R-hat <= 1.05 (-n is then the cap; exit 3 if reached first)")
     p.add_argument("--thin", type=int, default=None,
-                   help="hit-and-run steps between samples (default max(50, dim_S^2))")
+                   help="hit-and-run steps between samples (default max(50, dim_S^2)); billiard: "
+                        "trajectories between samples (default 1)")
     p.add_argument("--burn-in", type=int, default=None,
-                   help="hit-and-run burn-in steps per chain (default max(500, 10 dim_S^2))")
+                   help="hit-and-run burn-in steps per chain (default max(500, 10 dim_S^2)); "
+                        "billiard: trajectories per chain (default 50)")
     p.add_argument("--direction", choices=("hypersphere", "coordinate"), default=None,
                    help="hit-and-run directions (default coordinate, in the rounded frame: "
                         "MVE, or its Lewis-weight approximation above 1500 rows)")

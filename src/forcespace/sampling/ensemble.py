@@ -22,7 +22,7 @@ class Ensemble:
     violations (k,) the largest violation of S of each sample, / <Fn>; contacts (m,)
     packing contact index of each unknown contact; disks (n,) packing index of each
     interior disk; mu (m,) Coulomb coefficients; x_jammed (2m,) the jammed network
-    [F0]; force_scale <Fn> [F0]; sampler ("hit-and-run", "relax"); params (the
+    [F0]; force_scale <Fn> [F0]; sampler ("hit-and-run", "billiard", "relax"); params (the
     sampler's parameters); attrs (provenance: packing_file, scene_name, scene_text,
     problem_kind, slice_height, mu_override, code_version, ...); diagnostics
     (convergence: split R-hat and ESS, per-chain eta, ...; see

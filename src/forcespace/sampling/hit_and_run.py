@@ -27,7 +27,7 @@ are coordinate (CHRR, Haraldsdottir et al. 2017): O(p) per step with H in
 Fortran order, thinning d^2 steps, burn-in 10 thinning intervals per chain.
 Nothing is adapted while samples are kept.
 
-Random numbers: xoshiro256** per chain inside numba (state 4 x uint64),
+Random numbers: xoshiro256** per chain inside numba (xoshiro.py, state 4 x uint64),
 saved in the checkpoint so that a resumed run continues the same streams.
 
 Diagnostics: split R-hat and a bulk effective sample size (Geyer initial
@@ -51,47 +51,13 @@ from ..streams import chain_states
 from .driver import Stop, check_target, run_walk
 from .ensemble import Ensemble
 from .rounding import mve_rounding
+from .xoshiro import normal, seed_states, uniform
 
 
 
 # ----------------------------------------------------------------------------
 # kernels
 # ----------------------------------------------------------------------------
-@kernel
-def _rotl(x, k):
-    return (x << np.uint64(k)) | (x >> np.uint64(64 - k))
-
-
-@kernel
-def _next(s):
-    """xoshiro256** step on state s (4,) uint64; returns a uint64."""
-    result = _rotl(s[1] * np.uint64(5), 7) * np.uint64(9)
-    t = s[1] << np.uint64(17)
-    s[2] ^= s[0]
-    s[3] ^= s[1]
-    s[1] ^= s[2]
-    s[0] ^= s[3]
-    s[2] ^= t
-    s[3] = _rotl(s[3], 45)
-    return result
-
-
-@kernel
-def _uniform(s):
-    """Uniform double in [0, 1)."""
-    return float(_next(s) >> np.uint64(11)) * (1.0 / 9007199254740992.0)
-
-
-@kernel
-def _normal(s):
-    """Standard normal (Box-Muller, one of the pair)."""
-    u1 = _uniform(s)
-    while u1 <= 0.0:
-        u1 = _uniform(s)
-    u2 = _uniform(s)
-    return np.sqrt(-2.0 * np.log(u1)) * np.cos(2.0 * np.pi * u2)
-
-
 @kernel
 def slack_refresh(d):
     """Steps between exact slack recomputations: 64 up to d = 64, else the power-of-two
@@ -122,14 +88,14 @@ def har_steps(H, s0, w, state, n_steps, coordinate):
         if step % refresh == 0 and step > 0:
             slack = s0 - H @ w
         if coordinate:
-            c = int(_uniform(state) * d)
+            c = int(uniform(state) * d)
             if c >= d:
                 c = d - 1
             hu = H[:, c]                 # a column: contiguous with H in Fortran order
         else:
             nrm = 0.0
             for i in range(d):
-                u[i] = _normal(state)
+                u[i] = normal(state)
                 nrm += u[i] * u[i]
             nrm = np.sqrt(nrm)
             for i in range(d):
@@ -151,7 +117,7 @@ def har_steps(H, s0, w, state, n_steps, coordinate):
             elif h < -1e-300:
                 if sj < tmin * h:
                     tmin = sj / h
-        r = _uniform(state)
+        r = uniform(state)
         if not (np.isfinite(tmin) and np.isfinite(tmax)) or tmax < tmin:
             bad += 1
             continue
@@ -280,12 +246,13 @@ class _Walk:
     sampler = "hit-and-run"
 
     def __init__(self, problem: StaticsProblem, options: dict, analysis, progress: bool):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         self.problem, self.progress = problem, progress
         self.xc, self.N, self.H0, self.s0, self.free, self.analysis = frame(problem, analysis)
         self.d = self.N.shape[1]
         self.params = default_params(self.d, self.H0.shape[0], **options)
         self.times = {"frame_s": time.perf_counter() - t0, "rounding_s": 0.0, "burn_in_s": 0.0}
+        self.cpu = {"frame_s": time.process_time() - c0, "rounding_s": 0.0, "burn_in_s": 0.0}
         self.tolerance_description = (
             f"every sample has max violation <= {config.SAMPLE_VIOLATION} relative to <Fn> "
             "(checked), plus the equilibrium floor of the frame's directions |A T| |w| / <Fn>")
@@ -296,22 +263,24 @@ class _Walk:
         p, d, scale = self.params, self.d, self.problem.force_scale
         xc, s0, H0, N = self.xc, self.s0, self.H0, self.N
         if d:
-            t1 = time.perf_counter()
+            t1, c1 = time.perf_counter(), time.process_time()
             y0, L, rinfo = rounding(H0, s0, scale, progress=self.progress, method=p["rounding"])
             xc = xc + scale * (N @ y0)
             s0 = s0 - scale * (H0 @ y0)
             T = scale * (N @ L)
             H = np.asfortranarray(scale * (H0 @ L))
             self.times["rounding_s"] = time.perf_counter() - t1
+            self.cpu["rounding_s"] = time.process_time() - c1
         else:
             T, H, rinfo = np.zeros((N.shape[0], 0)), np.zeros((H0.shape[0], 0)), {}
         states = chain_states(p["seed"], p["chains"])
         W = np.zeros((p["chains"], d))
-        t1 = time.perf_counter()
+        t1, c1 = time.perf_counter(), time.process_time()
         if d:
             run_burn_in(H, s0, W, states, p["burn_in"], p["direction"] == "coordinate",
                         self.progress)
         self.times["burn_in_s"] = time.perf_counter() - t1
+        self.cpu["burn_in_s"] = time.process_time() - c1
         self._start_chains(xc, T, H, s0, W, states)
         setup = {"x_centre": xc, "T": T, "H": np.ascontiguousarray(H), "s0": s0,
                  "free_rows": self.free,
@@ -411,7 +380,7 @@ class HitAndRun(Computed):
 
     def compute(self, problem: StaticsProblem, output=None, analysis=None) -> "HitAndRun":
         """Sample S of ``problem``; ``analysis``: its ForceSpace, if already computed."""
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         walk = _Walk(problem, self.options, analysis, self.progress)
         stop = Stop(self.n, self.max_seconds, self.target_ess, walk.params["chains"],
                     walk.params["seed"])
@@ -421,8 +390,10 @@ class HitAndRun(Computed):
         wall = time.perf_counter() - t0
         times = dict(walk.times, wall_time_s=wall,
                      sampling_s=wall - sum(walk.times.values()))
+        cpu_total = time.process_time() - c0
+        cpu = dict(walk.cpu, sampling_s=cpu_total - sum(walk.cpu.values()), total_s=cpu_total)
         self._results.update(ensemble=ens, dim=walk.d, n_rows=int(walk.H0.shape[0]),
-                             times=times, frame_equality_floor=walk.floor_max,
+                             times=times, cpu=cpu, frame_equality_floor=walk.floor_max,
                              params=walk.params)
         self._finish(ens.status, ens.message)
         return self
@@ -454,6 +425,12 @@ class HitAndRun(Computed):
         return self._get("times")
 
     @property
+    def cpu(self) -> dict:
+        """CPU seconds (process time): frame_s, rounding_s, burn_in_s, sampling_s (the
+        rest: draws and diagnostics), total_s."""
+        return self._get("cpu")
+
+    @property
     def frame_equality_floor(self) -> float:
         """Largest equilibrium residual of the frame's directions at a sample, / <Fn>."""
         return self._get("frame_equality_floor")
@@ -471,7 +448,7 @@ class HitAndRun(Computed):
         """The run's numbers (what ``forcespace sample --json`` prints)."""
         ens = self.ensemble
         return {"n_samples": ens.n_samples, "dim_S": self.dim, "n_rows": self.n_rows,
-                **self.times, "frame_equality_floor": self.frame_equality_floor,
+                **self.times, "cpu": self.cpu, "frame_equality_floor": self.frame_equality_floor,
                 "max_violation": float(ens.violations.max(initial=0.0)),
                 "params": self.params, "status": self.status, "message": self.message,
                 **ens.diagnostics}
