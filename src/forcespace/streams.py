@@ -27,8 +27,11 @@ The static solve and the push use the scene seed as their relaxation seed.
 
 Sampling and the analysis of S (the run's ``seed``):
 
-* **hit-and-run chains** -- :func:`chain_states`: chain c walks with the xoshiro256
-  state ``SeedSequence(seed).spawn(chains)[c].generate_state(4, uint64)``.
+* **hit-and-run and billiard chains** -- :func:`chain_states`: chain c walks with the
+  xoshiro256** state ``SeedSequence(seed).spawn(chains)[c].generate_state(4, uint64)``
+  (the generator itself: :mod:`forcespace.sampling.xoshiro`).
+* **billiard starts** -- :func:`start_generator`: the chains' dispersed starting
+  directions, ``default_rng(SeedSequence([seed, 0x57A7]))``.
 * **relax-walk kicks** -- :func:`chain_generators`: one chain: ``default_rng(seed)``;
   more: ``default_rng`` of each of ``SeedSequence(seed).spawn(chains)``.
 * **tracked projections** -- :func:`projection_generator`: the random directions the
@@ -129,6 +132,11 @@ def restored_generator(state: dict) -> np.random.Generator:
     g = np.random.default_rng()
     g.bit_generator.state = state
     return g
+
+
+def start_generator(seed: int) -> np.random.Generator:
+    """The generator of the billiard chains' dispersed starting directions."""
+    return np.random.default_rng(np.random.SeedSequence([seed, 0x57A7]))
 
 
 def projection_generator(seed: int) -> np.random.Generator:

@@ -27,7 +27,7 @@ from forcespace.sampling.billiard import BilliardWalk
 from forcespace.sampling.diagnostics import by_chain
 from forcespace.sampling.hit_and_run import HitAndRun
 from forcespace.sampling.rounding import lewis_rounding
-from forcespace.sampling.xoshiro import seed_states
+from forcespace.streams import chain_states as seed_states
 
 P_MIN = 1e-3
 

@@ -66,12 +66,11 @@ from ..errors import InputError, NumericalError, require_int
 from ..kernels import kernel
 from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
-from ..result import Computed
-from .driver import Stop, check_target, run_walk
-from .ensemble import Ensemble
+from ..streams import chain_states, start_generator
+from .driver import FrameSampler, Stop, check_target, run_walk
 from .hit_and_run import frame
 from .rounding import lewis_rounding_with_progress
-from .xoshiro import normals, seed_states, uniform
+from .xoshiro import normals, uniform
 
 MAX_GRAM_BYTES = 4e9    # largest K = H H^T kept in memory (p <= ~22000 rows)
 LENGTH_MODES = {"exponential": 0, "uniform": 1, "rehmc": 2}
@@ -214,7 +213,7 @@ def dispersed_starts(H, s0, chains: int, seed: int = 0) -> np.ndarray:
     """(chains, d) starting points: for each chain a random direction u (isotropic) and
     the point 0.9 t u, t the distance from w = 0 to the boundary along u: chains start
     towards different parts of the boundary (over-dispersed, as R-hat wants)."""
-    rng = np.random.default_rng(np.random.SeedSequence([seed, 0x57A7]))
+    rng = start_generator(seed)
     d = H.shape[1]
     W = np.zeros((chains, d))
     for c in range(chains):
@@ -294,7 +293,7 @@ def walk_polytope(H, s, y0, n: int, seed: int = 0, chains: int = 4, thin: int = 
     c0, Lc, info = lewis_rounding_with_progress(H, s, y0, rounding_updates)
     Hr = np.ascontiguousarray(np.asarray(H, float) @ Lc)
     sr = np.asarray(s, float) - np.asarray(H, float) @ c0
-    walk = Chains(Hr, sr, dispersed_starts(Hr, sr, chains, seed), seed_states(seed, chains))
+    walk = Chains(Hr, sr, dispersed_starts(Hr, sr, chains, seed), chain_states(seed, chains))
     walk.burn_in(burn_in, tau_factor, length, tau, max_refl)
     Wk = np.zeros((chains, n, Hr.shape[1]))
     for c in range(chains):
@@ -388,7 +387,7 @@ class _Walk:
         self.times["rounding_s"] = time.perf_counter() - t1
         self.cpu["rounding_s"] = time.process_time() - c1
         c1 = time.process_time()
-        states = seed_states(p["seed"], p["chains"])
+        states = chain_states(p["seed"], p["chains"])
         W = dispersed_starts(H, s0, p["chains"], p["seed"]) if d else np.zeros((p["chains"], 0))
         walk = Chains(H, s0, W, states, None if d else np.zeros((0, 0)))
         self.cpu["gram_s"] = time.process_time() - c1
@@ -488,7 +487,7 @@ class _TimedStop(Stop):
             self.cpu_s += time.process_time() - c0
 
 
-class BilliardWalk(Computed):
+class BilliardWalk(FrameSampler):
     """Uniform samples of S by the billiard walk (compute object; module docstring).
 
     ``BilliardWalk(n=100, seed=1).compute(problem)`` draws ``n`` samples in memory;
@@ -551,39 +550,6 @@ class BilliardWalk(Computed):
         return self
 
     @property
-    def ensemble(self) -> Ensemble:
-        """The samples (:class:`~forcespace.sampling.ensemble.Ensemble`)."""
-        return self._get("ensemble")
-
-    @property
-    def eta(self) -> float:
-        """The paper's force ambiguity of the samples."""
-        return self.ensemble.eta
-
-    @property
-    def dim(self) -> int:
-        """Dimension of S (of the frame the walk ran in)."""
-        return self._get("dim")
-
-    @property
-    def n_rows(self) -> int:
-        """Inequality rows of the rounded polytope the trajectories reflect off."""
-        return self._get("n_rows")
-
-    @property
-    def times(self) -> dict:
-        """Wall seconds: frame_s, rounding_s, burn_in_s (0 when resumed), sampling_s (the
-        rest) and wall_time_s."""
-        return self._get("times")
-
-    @property
-    def cpu(self) -> dict:
-        """CPU seconds (process time): frame_s, rounding_s, gram_s, burn_in_s, sampling_s
-        (the draws: trajectories, mapping to x, the check against S), diagnostics_s (the
-        target-ESS checks), total_s (everything, the final diagnostics included)."""
-        return self._get("cpu")
-
-    @property
     def counts(self) -> dict:
         """Trajectories, reflections and discarded trajectories of this run's draws, and
         the burn-in's trajectories and reflections."""
@@ -595,20 +561,6 @@ class BilliardWalk(Computed):
         rounding's info (empty when resumed)."""
         return self._get("walk_info")
 
-    @property
-    def frame_equality_floor(self) -> float:
-        """Largest equilibrium residual of the frame's directions at a sample, / <Fn>."""
-        return self._get("frame_equality_floor")
-
-    @property
-    def params(self) -> dict:
-        """The parameters the walk ran with (defaults filled in)."""
-        return self._get("params")
-
-    def plot(self, packing, sample: int = -1, ax=None, **kw):
-        """Draw one sample as the force network of ``packing``; returns the Axes."""
-        return self.ensemble.plot(packing, sample, ax, **kw)
-
     def summary(self) -> dict:
         """The run's numbers (what ``forcespace sample --json`` prints)."""
         ens = self.ensemble
@@ -619,5 +571,3 @@ class BilliardWalk(Computed):
                 "params": self.params, "status": self.status, "message": self.message,
                 **ens.diagnostics}
 
-    def __repr__(self) -> str:
-        return f"BilliardWalk(n={self.n}, seed={self.seed})"

@@ -28,6 +28,7 @@ from ..io import ensemble_file as ef
 from ..io.jsonfile import dumps
 from ..io.outputs import check_output_file, output_lock
 from ..progress import progress as progress_bar
+from ..result import Computed
 from .diagnostics import by_chain, converged, diagnostics, summarize, tracked_statistics
 from .ensemble import Ensemble
 
@@ -226,3 +227,65 @@ def _ensemble(walk, problem, old, sink, status, message, output) -> Ensemble:
                    message=message, path=None if output is None else str(output))
     ens.diagnostics = diagnostics(ens.samples, ens.chains, walk.params.get("seed", 0))
     return ens
+
+
+class Sampler(Computed):
+    """What every sampler's result has (the samplers are compute objects of this kind:
+    ``Sampler(n, seed, ...).compute(problem)``): the samples, their eta, the parameters
+    and the run's wall seconds."""
+
+    n: int
+    seed: int
+
+    @property
+    def ensemble(self) -> Ensemble:
+        """The samples (:class:`~forcespace.sampling.ensemble.Ensemble`), with their
+        convergence diagnostics."""
+        return self._get("ensemble")
+
+    @property
+    def eta(self) -> float:
+        """The paper's force ambiguity of the samples."""
+        return self.ensemble.eta
+
+    @property
+    def params(self) -> dict:
+        """The parameters the walk ran with (defaults filled in)."""
+        return self._get("params")
+
+    @property
+    def times(self) -> dict:
+        """Wall seconds of the run: wall_time_s, and for the walks in a rounded frame
+        frame_s, rounding_s, burn_in_s (0 when resumed) and sampling_s (the rest)."""
+        return self._get("times")
+
+    def plot(self, packing, sample: int = -1, ax=None, **kw):
+        """Draw one sample as the force network of ``packing``; returns the Axes."""
+        return self.ensemble.plot(packing, sample, ax, **kw)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(n={self.n}, seed={self.seed})"
+
+
+class FrameSampler(Sampler):
+    """A sampler that walks in the rounded affine frame of S (hit-and-run, billiard)."""
+
+    @property
+    def dim(self) -> int:
+        """Dimension of S (of the frame the walk ran in)."""
+        return self._get("dim")
+
+    @property
+    def n_rows(self) -> int:
+        """Inequality rows of the rounded polytope the walk moves in."""
+        return self._get("n_rows")
+
+    @property
+    def cpu(self) -> dict:
+        """CPU seconds (process time) of the run's stages."""
+        return self._get("cpu")
+
+    @property
+    def frame_equality_floor(self) -> float:
+        """Largest equilibrium residual of the frame's directions at a sample, / <Fn>."""
+        return self._get("frame_equality_floor")

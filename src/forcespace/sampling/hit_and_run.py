@@ -45,13 +45,11 @@ from ..errors import InputError, NumericalError, require_int
 from ..kernels import kernel
 from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
-from ..result import Computed
 from ..space.force_space import ForceSpace
 from ..streams import chain_states
-from .driver import Stop, check_target, run_walk
-from .ensemble import Ensemble
+from .driver import FrameSampler, Stop, check_target, run_walk
 from .rounding import mve_rounding
-from .xoshiro import normal, seed_states, uniform
+from .xoshiro import normal, uniform
 
 
 
@@ -349,7 +347,7 @@ SETUP_DESCRIPTION = {
     "mve_axis_ratio": ("1", "axis ratio of the MVE in each rounding pass (last ~1: rounded)")}
 
 
-class HitAndRun(Computed):
+class HitAndRun(FrameSampler):
     """Uniform samples of S by coordinate hit-and-run (compute object).
 
     ``HitAndRun(n=100, seed=1).compute(problem)`` draws ``n`` samples in memory;
@@ -398,52 +396,6 @@ class HitAndRun(Computed):
         self._finish(ens.status, ens.message)
         return self
 
-    @property
-    def ensemble(self) -> Ensemble:
-        """The samples (:class:`~forcespace.sampling.ensemble.Ensemble`)."""
-        return self._get("ensemble")
-
-    @property
-    def eta(self) -> float:
-        """The paper's force ambiguity of the samples."""
-        return self.ensemble.eta
-
-    @property
-    def dim(self) -> int:
-        """Dimension of S (of the frame the walk ran in)."""
-        return self._get("dim")
-
-    @property
-    def n_rows(self) -> int:
-        """Inequality rows of the rounded polytope the chords are cut by."""
-        return self._get("n_rows")
-
-    @property
-    def times(self) -> dict:
-        """Wall seconds: frame_s (analysis and frame), rounding_s, burn_in_s (0 when
-        resumed), sampling_s (the rest) and wall_time_s."""
-        return self._get("times")
-
-    @property
-    def cpu(self) -> dict:
-        """CPU seconds (process time): frame_s, rounding_s, burn_in_s, sampling_s (the
-        rest: draws and diagnostics), total_s."""
-        return self._get("cpu")
-
-    @property
-    def frame_equality_floor(self) -> float:
-        """Largest equilibrium residual of the frame's directions at a sample, / <Fn>."""
-        return self._get("frame_equality_floor")
-
-    @property
-    def params(self) -> dict:
-        """The parameters the walk ran with (defaults filled in)."""
-        return self._get("params")
-
-    def plot(self, packing, sample: int = -1, ax=None, **kw):
-        """Draw one sample as the force network of ``packing``; returns the Axes."""
-        return self.ensemble.plot(packing, sample, ax, **kw)
-
     def summary(self) -> dict:
         """The run's numbers (what ``forcespace sample --json`` prints)."""
         ens = self.ensemble
@@ -453,5 +405,3 @@ class HitAndRun(Computed):
                 "params": self.params, "status": self.status, "message": self.message,
                 **ens.diagnostics}
 
-    def __repr__(self) -> str:
-        return f"HitAndRun(n={self.n}, seed={self.seed})"

@@ -44,12 +44,10 @@ from .. import config
 from ..engine.frozen import frozen_contacts, relax
 from ..errors import InputError, NumericalError, require_int
 from ..model.problem import StaticsProblem
-from ..result import Computed
 from ..space.force_space import check_bounded, check_feasible
 from ..space.projection import distance_to_S, l1_nearest
 from ..streams import chain_generators, restored_generator
-from .driver import Stop, check_target, run_walk
-from .ensemble import Ensemble
+from .driver import Sampler, Stop, check_target, run_walk
 
 
 class Relaxer:
@@ -203,7 +201,7 @@ class _Walk:
                  "sweeps_total": int(self.sweeps_total), "n_projected": len(self.projected)})
 
 
-class RelaxWalk(Computed):
+class RelaxWalk(Sampler):
     """The paper's perturb-and-relax walk through S (compute object; module docstring).
 
     ``RelaxWalk(n=100, seed=1).compute(problem)`` draws ``n`` samples in memory;
@@ -254,16 +252,6 @@ class RelaxWalk(Computed):
         return self
 
     @property
-    def ensemble(self) -> Ensemble:
-        """The samples (:class:`~forcespace.sampling.ensemble.Ensemble`)."""
-        return self._get("ensemble")
-
-    @property
-    def eta(self) -> float:
-        """The paper's force ambiguity of the samples."""
-        return self.ensemble.eta
-
-    @property
     def sweeps_total(self) -> int:
         """Gauss-Seidel sweeps of the walk, the start's relaxation included."""
         return self._get("sweeps_total")
@@ -278,19 +266,6 @@ class RelaxWalk(Computed):
     def n_projected_l1(self) -> int:
         """Stalls of this run finished by the L1-nearest network (projection unverifiable)."""
         return self._get("n_projected_l1")
-
-    @property
-    def times(self) -> dict:
-        """Wall seconds of the run (wall_time_s)."""
-        return self._get("times")
-
-    @property
-    def params(self) -> dict:
-        return self._get("params")
-
-    def plot(self, packing, sample: int = -1, ax=None, **kw):
-        """Draw one sample as the force network of ``packing``; returns the Axes."""
-        return self.ensemble.plot(packing, sample, ax, **kw)
 
     def summary(self) -> dict:
         """The run's numbers (what ``forcespace sample --json`` prints)."""

@@ -1,9 +1,9 @@
 """The random numbers of the samplers' kernels: xoshiro256** (Blackman & Vigna), one
 state of 4 x uint64 per chain, advanced in place inside numba.
 
-States come from numpy's SeedSequence(seed) spawned once per chain
-(:func:`seed_states`), so every chain has its own stream and a checkpoint of the 4
-words resumes it exactly. Hit-and-run and the billiard walk share this generator.
+States come from :func:`forcespace.streams.chain_states`, one independent stream per
+chain, so a checkpoint of the 4 words resumes a chain exactly. Hit-and-run and the
+billiard walk share this generator.
 """
 from __future__ import annotations
 
@@ -63,10 +63,3 @@ def normals(s, out):
         if i + 1 < n:
             out[i + 1] = r * np.sin(2.0 * np.pi * u2)
         i += 2
-
-
-def seed_states(seed: int, n_chains: int) -> np.ndarray:
-    """Independent xoshiro states (n_chains, 4) uint64 from numpy's SeedSequence."""
-    ss = np.random.SeedSequence(seed)
-    return np.array([c.generate_state(4, dtype=np.uint64) for c in ss.spawn(n_chains)],
-                    dtype=np.uint64)
