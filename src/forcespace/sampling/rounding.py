@@ -43,9 +43,6 @@ import scipy.linalg as sla
 from .. import config
 from ..errors import InputError, NumericalError
 
-ROW_TOL = 1e-10   # rows of {A x <= 1} below this x the largest row norm are round-off
-CENTRED = 1e-3    # Newton decrement at which john_ellipsoid counts its centre as found
-
 
 def _live_rows(A):
     """Mask (p,) of the rows of the slack-scaled {A x <= 1} that can bind: rows that are
@@ -53,7 +50,7 @@ def _live_rows(A):
     that do not vary in S) never bind, and with them an iteration stalls (their
     residual never falls)."""
     nrm = np.linalg.norm(A, axis=1)
-    return nrm > ROW_TOL * nrm.max(initial=0.0)
+    return nrm > config.ROUNDING_ROW_TOL * nrm.max(initial=0.0)
 
 
 def _spd_factor(M):
@@ -177,7 +174,7 @@ def john_ellipsoid(H, s, y0, maxiter: int = 300, tol: float = 0.05, callback=Non
     slack-scaled rows a_i = H_i / (s_i - H_i c)).
 
     Alternates Newton steps to the w-weighted analytic centre (until the Newton
-    decrement is below CENTRED) with one Lewis-weight update w_i <- w_i
+    decrement is below ``config.ROUNDING_CENTRED``) with one Lewis-weight update w_i <- w_i
     a_i^T M^{-1} a_i, M = sum w_i a_i a_i^T (weights renormalised to sum d and
     floored at 1e-6 d/p: weights left to vanish let the centre drift onto their
     rows and the iteration oscillates). Converged: John's condition
@@ -220,7 +217,7 @@ def john_ellipsoid(H, s, y0, maxiter: int = 300, tol: float = 0.05, callback=Non
         dec = float(np.sqrt(max(-g @ dy, 0.0)))
         if callback is not None:
             callback(it, excess, dec)
-        if dec > CENTRED:                             # centre first: a Newton step
+        if dec > config.ROUNDING_CENTRED:             # centre first: a Newton step
             y = _damped_step(H, r, y, w, g, dy, dec)
             r = s - H @ y
             continue
