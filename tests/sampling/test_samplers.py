@@ -190,3 +190,21 @@ def test_relax_walk_in_chains_gives_r_hat_and_one_chain_is_the_walk_of_before():
     again = RelaxWalk(10, seed=2, chains=1).compute(prob).ensemble
     assert np.array_equal(one.samples, again.samples) and "chains" not in one.params
     assert not np.array_equal(four.samples[:10], one.samples)   # other streams
+
+
+def test_the_progress_total_follows_the_ess_measured_so_far():
+    # ESS grows about linearly with the draws: 50 after 400 samples with target 100 means
+    # about 800 samples in all (a multiple of the chains, never before the next check,
+    # never beyond the cap); without a target or a measurement the total is the cap n
+    from forcespace.sampling.driver import Stop
+    stop = Stop(n=10_000, target_ess=100.0, chains=4)
+    assert stop.expected_total() == 10_000
+    stop.last, stop.next_check = {"min_ess": 50.0, "max_rhat": 1.1, "k": 400}, 500
+    assert stop.expected_total() == 800
+    stop.last["min_ess"] = 30.0                      # 1333.3 -> 1336 (4 chains)
+    assert stop.expected_total() == 1336
+    stop.last["min_ess"] = 99.0                      # nearly there: the next check
+    assert stop.expected_total() == 500
+    stop.last["min_ess"] = 1.0
+    assert stop.expected_total() == 10_000           # the cap
+    assert Stop(n=300).expected_total() == 300

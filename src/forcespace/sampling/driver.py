@@ -121,7 +121,7 @@ class Stop:
             self.next_check = self.chains * -(-int(1.25 * k) // self.chains)
             X, chains = samples()
             s = summarize(tracked_statistics(by_chain(X, chains), seed=self.seed))
-            self.last = {"min_ess": s["min_ess"], "max_rhat": s["max_rhat"]}
+            self.last = {"min_ess": s["min_ess"], "max_rhat": s["max_rhat"], "k": k}
             if converged(s, self.target_ess):
                 return 0, (f"converged: ESS >= {s['min_ess']:.0f} (target "
                            f"{self.target_ess:g}), R-hat <= {s['max_rhat']:.3f} after {k} "
@@ -131,6 +131,16 @@ class Stop:
                 return 1, f"stopped after max_seconds = {self.max_seconds:g} s with {k} " \
                           f"samples{self._short()}"
         return None
+
+    def expected_total(self) -> int:
+        """Samples the run is expected to draw: with a target ESS and an ESS measured after
+        k samples, k x target / ESS (ESS grows about linearly with the draws), not before
+        the next check and at most n; else n. What the progress bar's ETA is taken to."""
+        ess = self.last.get("min_ess") if self.last else None
+        if self.target_ess is None or not ess or not np.isfinite(ess):
+            return self.n
+        need = max(self.last["k"] * self.target_ess / ess, self.next_check)
+        return int(min(self.n, self.chains * -(-int(np.ceil(need)) // self.chains)))
 
     def at_cap(self, k: int, samples=None):
         """(status, message) of a run that drew all n samples (``samples()``: as for
@@ -200,6 +210,9 @@ def _draw(walk, problem, stop, output, old, every, progress, t0) -> Ensemble:
                 outcome = stop(i + 1, samples, t0)
                 if outcome is not None:
                     break
+                if stop.last and bar.total != stop.expected_total():
+                    bar.total = stop.expected_total()     # the ETA to the target ESS
+                    bar.refresh()
         except BaseException:
             sink.flush()       # finished samples are never lost
             raise
