@@ -16,6 +16,7 @@ ported). The agreement with hit-and-run on the paper slice does not see that 5 %
 import warnings
 
 import numpy as np
+import pytest
 from scipy import stats
 
 from ensemble_cases import grooves
@@ -297,3 +298,12 @@ def test_agrees_with_hit_and_run_on_a_paper_slice():
     assert np.median(np.abs(sb / sh - 1)) < 0.1
     (eta_b, se_b), (eta_h, se_h) = _eta_and_error(Xb), _eta_and_error(Xh)
     assert abs(eta_b - eta_h) < 4 * np.hypot(se_b, se_h), (eta_b, se_b, eta_h, se_h)
+    # Fig. 3's distances: the jammed network's l0 / lbar (centre = the sampler's own mean)
+    # and the spread of l / lbar agree (the l0 / lbar of a uniform sampler is a property
+    # of S; the relax walk's is 3x smaller, tests/studies)
+    from forcespace import distance_from_centre
+    x0 = prob.x_jammed
+    lb = distance_from_centre(bil.ensemble.samples, x0)
+    lh = distance_from_centre(har.samples, x0)
+    assert lb[1] / lb[2] == pytest.approx(lh[1] / lh[2], rel=0.05)
+    assert np.std(lb[0]) / lb[2] == pytest.approx(np.std(lh[0]) / lh[2], rel=0.1)
