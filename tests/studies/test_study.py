@@ -170,6 +170,17 @@ def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
     assert report.index("Title fig1") < report.index("Title fig3")
     assert "| fig1 | claim fig1 |  | 42 | **refuted** |" in report
     assert "(fig1/a.png)" in report
+    assert "earlier rules" not in report
+    # a summary written before the verdict rules (no rules_version) is shown as it was,
+    # marked, and named at the top of the report
+    doc = json.loads((tmp_path / "fig1" / "verdicts.json").read_text())
+    del doc["rules_version"]
+    (tmp_path / "fig1" / "verdicts.json").write_text(json.dumps(doc))
+    write_report([tmp_path / "fig3", tmp_path / "fig1"], tmp_path / "REPORT.md")
+    report = (tmp_path / "REPORT.md").read_text()
+    assert "| fig1 | claim fig1 |  | 42 | **refuted (earlier rules)** |" in report
+    assert "| fig3 | claim fig3 |  | 42 | **refuted** |" in report
+    assert "**Summarised under earlier rules** (fig1)" in report
 
 
 @pytest.mark.slow
