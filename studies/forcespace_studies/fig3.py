@@ -184,7 +184,7 @@ def summarize(results: list[dict], out) -> dict:
     from matplotlib.figure import Figure
 
     from forcespace.plot import save_figure
-    from .report import write_csv, write_section
+    from .report import RULES_VERSION, write_csv, write_section
 
     out = Path(out)
     rows = [r for r in results if r.get("ok") and r.get("usable")]
@@ -214,7 +214,8 @@ def summarize(results: list[dict], out) -> dict:
     save_figure(fig, out / "fig3.png", tight=True)
     text = _section_text(numbers, rows)
     write_section(out, "fig3", "Fig. 3: where the jammed network sits in S, and is the walk "
-                  "uniform?", text, verdicts, numbers, figures=["fig3.png"])
+                  "uniform?", text, verdicts, numbers, figures=["fig3.png"],
+                  rules_version=RULES_VERSION)
     return {"tasks": len(results), "failed": len(failed), "usable": len(rows),
             "table": str(out / "fig3.csv"), "figure": str(out / "fig3.png"),
             "verdicts": [v.verdict for v in verdicts]}

@@ -213,9 +213,11 @@ def _quick_verdicts(verdicts: list[dict], quick: bool) -> list[dict]:
 
 
 def write_section(out, name: str, title: str, text: str, verdicts: list[Verdict],
-                  numbers: dict, figures: list[str]) -> Path:
+                  numbers: dict, figures: list[str], rules_version: int = 1) -> Path:
     """Write OUT/verdicts.json and OUT/REPORT.md for study ``name``: inside ``out`` only
-    (returns the report's path). A quick run's verdicts become smoke tests."""
+    (returns the report's path). A quick run's verdicts become smoke tests.
+    ``rules_version``: :data:`RULES_VERSION` for a study whose verdicts follow
+    :data:`RULES`; 1 (the default) for one that does not yet (marked in reports)."""
     out = Path(out)
     report = check_report_file(out / "REPORT.md")
     info = study_info(out)
@@ -223,7 +225,7 @@ def write_section(out, name: str, title: str, text: str, verdicts: list[Verdict]
     doc = {"study": name, "title": title, "text": text, "quick": quick,
            "verdicts": _quick_verdicts([asdict(v) for v in verdicts], quick),
            "numbers": numbers, "figures": figures, "code_version": code_version(),
-           "rules_version": RULES_VERSION,
+           "rules_version": rules_version,
            "parameters": info.get("config"), "worker_seconds": _study_seconds(out)}
     with atomic_path(out / "verdicts.json") as tmp, open(tmp, "w") as fh:
         json.dump(jsonable(doc), fh, indent=1, allow_nan=False)

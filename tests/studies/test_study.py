@@ -155,13 +155,14 @@ def test_fig3_quick_distances_boundary_and_uniformity(tmp_path, capsys):
 
 
 def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
-    from forcespace_studies.report import Verdict, write_report, write_section
+    from forcespace_studies.report import RULES_VERSION, Verdict, write_report, write_section
     with pytest.raises(ValueError, match="verdict"):
         Verdict("x", "claim", "ours", "probably")
     for name in ("fig3", "fig1"):
         (tmp_path / name).mkdir()
         write_section(tmp_path / name, name, f"Title {name}", "text",
-                      [Verdict(name, f"claim {name}", "42", "refuted")], {"n": 1}, ["a.png"])
+                      [Verdict(name, f"claim {name}", "42", "refuted")], {"n": 1}, ["a.png"],
+                      rules_version=RULES_VERSION)
         assert f"| claim {name} |  |  | 42 | **refuted** |" in (
             tmp_path / name / "REPORT.md").read_text()
     assert not (tmp_path / "REPORT.md").exists()
@@ -171,8 +172,8 @@ def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
     assert "| fig1 | claim fig1 |  | 42 | **refuted** |" in report
     assert "(fig1/a.png)" in report
     assert "earlier rules" not in report
-    # a summary written before the verdict rules (no rules_version) is shown as it was,
-    # marked, and named at the top of the report
+    # a summary written before the verdict rules (no rules_version, or a study not yet
+    # judged by them: version 1) is shown as it was, marked, and named at the top
     doc = json.loads((tmp_path / "fig1" / "verdicts.json").read_text())
     del doc["rules_version"]
     (tmp_path / "fig1" / "verdicts.json").write_text(json.dumps(doc))
