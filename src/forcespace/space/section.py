@@ -31,8 +31,8 @@ class Section(Computed):
 
     Where x0 sits in the section: ``x0_edge_distance`` [F0], its distance to the
     section's boundary, and ``x0_edge_ratio``, that distance over the section's extent
-    (the larger of its widths along d1 and d2): about 0 on the edge, typically ~0.1-0.3
-    for a point inside.
+    (the larger of its widths along d1 and d2): 0 on the edge, at most 1/2; about 0.3 at
+    the paper slice's Chebyshev centre.
     """
 
     def __init__(self, n: int = 201, seed: int = 0, margin: float = 0.3):
