@@ -64,6 +64,8 @@ ROUNDING_CENTRED = 1e-3     # [1] Newton decrement at which the John rounding's 
 LEWIS_CENTRED = 1e-6        # [1] half the squared Newton decrement at which the billiard walk's
                             # Lewis rounding counts its centre as found (exact line search:
                             # 10-15 Newton steps from the Chebyshev centre at dim 1714)
+MAX_GRAM_BYTES = 4e9        # [bytes] largest Gram matrix K = H H^T the billiard walk keeps
+                            # (p <= ~22 000 rows); above, rows of K are computed per reflection
 MVE_MAX_ROWS = 1500         # [rows] above: John (Lewis-weight) rounding, not the exact MVE
 RELAX_STALL_SWEEPS = 20_000  # [sweeps] relax walk: no 1 % progress in this many is a stall
 RHAT_MAX = 1.05             # [1] chains whose split R-hat (rank-normalised, folded) exceeds

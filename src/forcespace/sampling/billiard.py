@@ -47,7 +47,7 @@ instead of the O(p d) of recomputing H v. A trajectory starts with one product H
 (O(p d)) for its fresh velocity; the slacks s0 - H w are kept per chain, updated
 incrementally and recomputed exactly every ~4 p reflections and after a rejection. K
 costs 8 p^2 bytes (0.9 GB at the 5000-disk slice, p = 10676); above
-``MAX_GRAM_BYTES`` the kernel computes H h_j per reflection instead (O(p d)).
+``config.MAX_GRAM_BYTES`` the kernel computes H h_j per reflection instead (O(p d)).
 
 Frame and rounding: x = x_centre + T w with the frame of hit-and-run (hit_and_run.frame:
 the affine hull of S, its non-implicit inequalities) and the cheap Lewis-weight rounding
@@ -72,7 +72,6 @@ from .hit_and_run import frame
 from .rounding import lewis_rounding_with_progress
 from .xoshiro import normals, uniform
 
-MAX_GRAM_BYTES = 4e9    # largest K = H H^T kept in memory (p <= ~22000 rows)
 LENGTH_MODES = {"exponential": 0, "uniform": 1, "rehmc": 2}
 # counts per chain, (4,) int64: trajectories, reflections, discarded trajectories,
 # reflections since the last exact slack recomputation
@@ -191,14 +190,15 @@ def billiard_walk(H, K, s0, w, slack, state, n_traj, tau, length_mode, max_refl,
 # ----------------------------------------------------------------------------
 # the walk on a polytope {H w <= s0}
 # ----------------------------------------------------------------------------
-def gram_matrix(H, max_bytes: float = MAX_GRAM_BYTES) -> np.ndarray:
+def gram_matrix(H, max_bytes: float | None = None) -> np.ndarray:
     """K = H H^T (p, p) for :func:`billiard_walk` (BLAS syrk), or an empty (0, 0) array
-    when it would take more than ``max_bytes`` (the kernel then computes rows on the fly)."""
+    when it would take more than ``max_bytes`` (default ``config.MAX_GRAM_BYTES``; the
+    kernel then computes rows on the fly)."""
     from scipy.linalg.blas import dsyrk
 
     H = np.asarray(H, float)
     p = H.shape[0]
-    if 8.0 * p * p > max_bytes:
+    if 8.0 * p * p > (config.MAX_GRAM_BYTES if max_bytes is None else max_bytes):
         return np.zeros((0, 0))
     K = np.triu(dsyrk(1.0, H, trans=0, lower=0))    # upper triangle of H H^T
     return np.ascontiguousarray(K + np.triu(K, 1).T)
