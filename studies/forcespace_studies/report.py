@@ -24,6 +24,8 @@ from forcespace.errors import InputError
 from forcespace.io.h5 import atomic_path, code_version
 from forcespace.io.jsonfile import jsonable
 
+from .literature import LITERATURE
+
 ORDER = ("fig1", "fig3", "fig2", "size", "pointforce", "selection")
 VERDICTS = ("reproduced", "refuted", "not decidable",      # a claim of the paper
             "supported", "not supported",                 # a hypothesis (open question)
@@ -306,7 +308,7 @@ def write_report(study_dirs, path) -> Path:
         for v in _shown_verdicts(d):
             lines.append(f"| {d['dir']} | {_claim(v)} | {SAMPLERS.get(v.get('sampler'), '')}"
                          f" | {_cell(v['ours'])} | **{v['verdict']}** |")
-    lines += ["", "## Verdict rules", "", RULES, "## Protocol", "", PROTOCOL]
+    lines += ["", "## Verdict rules", "", RULES, "## Protocol", "", PROTOCOL, LITERATURE]
     for d in docs:
         prefix = "" if d["dir"] == "." else f"{d['dir']}/"
         kind = " (quick run: a smoke test)" if d.get("quick") else ""

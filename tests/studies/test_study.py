@@ -172,6 +172,7 @@ def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
     assert "| fig1 | claim fig1 |  | 42 | **refuted** |" in report
     assert "(fig1/a.png)" in report
     assert "earlier rules" not in report
+    assert "## Related work since 2005" in report and "Snoeijer" in report
     # a summary written before the verdict rules (no rules_version, or a study not yet
     # judged by them: version 1) is shown as it was, marked, and named at the top
     doc = json.loads((tmp_path / "fig1" / "verdicts.json").read_text())
