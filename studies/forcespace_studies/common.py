@@ -9,6 +9,11 @@ from forcespace import jam, read_packing, write_packing
 from forcespace.io.outputs import file_lock
 
 
+def packing_path(out, scene: str, mu: float, seed: int, n_disks: int) -> Path:
+    """Where a study directory ``out`` keeps the packing (scene, mu, seed, n_disks)."""
+    return Path(out) / "packings" / f"{scene}_n{n_disks}_mu{mu:.6g}_s{seed}.h5"
+
+
 def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_from=(),
                    overrides=None):
     """The packing jammed from the bundled scene SCENE at (mu, seed, n_disks), made once per
@@ -25,12 +30,11 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
     in the middle of a long jam loses at most half a minute of it.
     Returns (Packing, jam wall time [s] of this call, 0 when it was reused).
     """
-    name = f"{scene}_n{n_disks}_mu{mu:.6g}_s{seed}.h5"
+    path = packing_path(out, scene, mu, seed, n_disks)
     for other in reuse_from:
-        theirs = Path(out).parent / other / "packings" / name
+        theirs = Path(out).parent / other / "packings" / path.name
         if theirs.is_file():
             return read_packing(theirs), 0.0
-    path = Path(out) / "packings" / name
     path.parent.mkdir(parents=True, exist_ok=True)
     with file_lock(path.parent / f".{path.name}.jamlock"):
         if path.is_file():

@@ -33,7 +33,7 @@ import numpy as np
 import forcespace as fs
 from forcespace.sweep import Task
 
-from .common import SAMPLERS, run_samplers, sampler, shared_packing
+from .common import SAMPLERS, packing_path, run_samplers, sampler, shared_packing
 
 QUICK = dict(scene="quick", n_disks=30, slice_height=12.0, mu=0.01, seeds=(1, 2, 3),
              cap=800, max_seconds=None)
@@ -288,12 +288,13 @@ def _edge_verdicts(ax, rows, har_rows, numbers) -> list:
     lo = max(min(jam.min(), uni.min() if uni.size else 1), 1e-8)
     bins = np.logspace(np.log10(lo) - 0.1, 0.1, 40)
     ax.hist(np.maximum(jam, lo), bins, histtype="stepfilled", alpha=0.4,
-            label=f"jammed network ({len(rows)} packings x {SECTIONS} sections)")
+            label=f"jammed network ({len(rows)} packings x {SECTIONS} sections;\n"
+                  f"on the boundary: drawn at {lo:.0e})")
     if uni.size:
         ax.hist(np.maximum(uni, lo), bins, histtype="step", lw=1.5,
                 label="uniform samples (reference)")
     ax.axvline(EDGE_RATIO, color="grey", ls="--", lw=1, label=f"edge: < {EDGE_RATIO:g}")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left")
     med = [float(np.median(r["jammed_edge_ratio"])) for r in rows if r.get("jammed_edge_ratio")]
     on = float((jam < EDGE_RATIO).mean())
     numbers["edge_ratio"] = {"jammed_median": float(np.median(jam)), "jammed_on_edge": on,
@@ -383,8 +384,14 @@ def _closer_verdict(m, p) -> str:
 
 
 def _section_panel(ax, row, out) -> None:
-    """The inset: the cross-section of S through the first packing's jammed network."""
+    """The inset: the cross-section of S through the first packing's jammed network
+    (packings are not kept with committed results: without it, the panel says so)."""
     par = row["params"]
+    if not packing_path(out, par["scene"], par["mu"], par["seed"], par["n_disks"]).is_file():
+        ax.axis("off")
+        ax.text(0.5, 0.5, "cross-section: the packing is not in this directory\n(run the "
+                "study's task again to draw it)", ha="center", va="center", fontsize=8)
+        return
     p, _ = shared_packing(out, par["scene"], par["mu"], par["seed"], par["n_disks"])
     sec = fs.Section(n=121, seed=row["seed"]).compute(fs.slice_problem(p, par["slice_height"]))
     sec.plot(ax, title=f"cross-section of S, seed {row['seed']} (dim S = {row['dim_S']})")

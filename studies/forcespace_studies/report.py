@@ -290,12 +290,12 @@ def write_report(study_dirs, path) -> Path:
     earlier = [d for d in docs if d.get("rules_version", 1) < RULES_VERSION]
     if earlier:
         names = ", ".join(d["dir"] for d in earlier)
-        lines += [f"**Summarised under earlier rules** ({names}): these studies' tasks "
-                  "were run before the verdict rules below were fixed, with parameters "
-                  "the current studies no longer accept; their verdicts are shown as they "
-                  f"were written, marked '({EARLIER})', and will be replaced by a rerun "
-                  "of the study. They do not meet rule 1 (one verdict per sampler) or "
-                  "rule 4 (converged chains only).", ""]
+        lines += [f"**Summarised under earlier rules** ({names}): these verdicts were "
+                  "written before the verdict rules below were fixed (or by a study not "
+                  "yet ported to them); they are shown as written, marked "
+                  f"'({EARLIER})', until the study is rerun under the rules. They do not "
+                  "meet rule 1 (one verdict per sampler) or rule 4 (converged chains "
+                  "only).", ""]
     if quick:
         names = ", ".join(d["dir"] for d in quick)
         lines += [f"**Quick runs** ({names}): small versions "
