@@ -1,7 +1,9 @@
 # forcespace: `make demo` installs everything and runs the main job on a small scene;
 # `make test` runs the test suite; `make bench` writes benchmark figures to studies/out/
 # (studies/bench.py, then studies/accuracy_vs_time.py, which needs LIGGGHTS, then the engine's
-# CPU benchmarks against the old engine and pymunk, forcespace_studies.bench_engine);
+# CPU benchmarks against the old engine and pymunk, forcespace_studies.bench_engine, and the
+# exact analysis against the old code, forcespace_studies.bench_analysis; the samplers' cost
+# table is `python studies/sampler_cost.py studies/sampler_cost`, hours, see its note);
 # `make studies` runs every study at full size (days on a few cores; resumable: rerun
 # after any interruption; not run by CI) into studies/results/NAME and rebuilds
 # studies/REPORT.md from them. STUDY_ARGS passes options, e.g. --scheduler tcp://host:8786.
@@ -42,6 +44,7 @@ bench: install liggghts
 	$(BIN)/python studies/bench.py
 	$(BIN)/python studies/accuracy_vs_time.py
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_engine
+	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_analysis
 
 STUDIES     := fig1 fig3 fig2 size pointforce selection
 STUDY_ARGS  ?=
