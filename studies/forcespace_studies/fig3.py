@@ -318,7 +318,7 @@ def _edge_verdicts(ax, rows, har_rows, numbers) -> list:
         numbers["jammed_slack_rank_hit_and_run"] = {"median": float(np.median(rank)),
                                                     "max": float(rank.max())}
         out.append(Verdict(
-            "fig3", "(ours) the jammed network is nearer the boundary than uniform samples "
+            "fig3", "the jammed network is nearer the boundary than uniform samples "
             "are: in 2-D sections, and in S itself",
             f"sections: Mann-Whitney p = {p_mw:.1e} (jammed vs uniform ratios); in S: "
             f"{100 * np.median(rank):.0f} % of uniform samples are nearer S's boundary than "
