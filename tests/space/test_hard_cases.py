@@ -14,7 +14,7 @@ from forcespace.engine.protocol import build_packing
 from forcespace.space.force_space import ForceSpace
 from forcespace.model.scene import validate
 import forcespace as fs
-from forcespace.model.problem import full_problem, plate_problem
+from forcespace.model.problem import full_problem, plate_problem, slice_problem
 
 from paths import DATA  # noqa: E402
 
@@ -199,3 +199,45 @@ def test_projection_on_a_slice_with_near_dependent_equilibrium_rows():
     others = fs.HitAndRun(n=100, seed=3).compute(prob).ensemble.samples
     others = np.vstack([others, chebyshev_centre(prob)[0]])
     assert np.linalg.norm(others - x, axis=1).min() >= r.absolute * (1 - 1e-9)
+
+
+def test_a_chebyshev_lp_that_highs_cannot_settle_is_solved_in_the_hull():
+    """Size study, n = 400, mu = 1, seed 2 (slice 39.6 R, dim S 2): every HiGHS attempt at
+    the full-space Chebyshev-centre LP ended with model status Unknown; in the affine
+    hull's own coordinates (3 unknowns) it is solved, and both uniform samplers start."""
+    prob = slice_problem(fs.read_packing(DATA / "paper_fast_n400_mu1_s2.h5"),
+                         39.59797974644666)
+    an = ForceSpace().compute(prob)
+    assert an.success and an.dim == 2
+    assert an.radius > 1e-3 * prob.force_scale and prob.violation(an.centre) <= 1e-9
+    eta = [fs.BilliardWalk(20000, seed=2, target_ess=100).compute(prob, analysis=an).eta,
+           fs.HitAndRun(3000, seed=2, chains=4, target_ess=100).compute(prob,
+                                                                       analysis=an).eta]
+    assert eta[0] == pytest.approx(eta[1], rel=0.1)
+
+
+def test_a_centre_a_round_off_outside_a_facet_is_recentred_in_the_frame():
+    """Size study, n = 800, mu = 1: the Chebyshev centre, projected onto the affine hull,
+    lay 1e-10 <Fn> outside a facet and the billiard walk's rounding refused it. Here the
+    centre handed to the frame is a vertex of the two-groove rectangle pushed 1e-10 <Fn>
+    outside: the frame recentres in its own coordinates, at the rectangle's centre line
+    (slack half the shorter side on the two nearest facets), and the walk starts."""
+    from types import SimpleNamespace
+
+    from ensemble_cases import grooves
+    from forcespace.sampling.hit_and_run import frame
+    from forcespace.space.loads import extreme_point
+    _, prob = grooves([np.pi / 6, np.pi / 5], 0.3)
+    an = ForceSpace().compute(prob)
+    vertex = extreme_point(prob, an.affine_basis @ np.array([1.0, 0.7]))
+    G, _, _ = prob.inequalities()
+    out = vertex + 1e-10 * prob.force_scale * np.asarray(G[int(np.argmax(G @ vertex))]
+                                                         .todense()).ravel()
+    fake = SimpleNamespace(**{k: getattr(an, k) for k in (
+        "success", "feasible", "bounded", "implicit_rows", "affine_basis", "affine_point")},
+        centre=out, message="")
+    xc, N, H0, s0, _, _ = frame(prob, fake)
+    assert s0.min() > 0 and prob.violation(xc) <= 1e-12
+    assert (s0 / np.linalg.norm(H0, axis=1)).min() == pytest.approx(an.radius, rel=1e-6)
+    b = fs.BilliardWalk(2000, seed=1, target_ess=100).compute(prob, analysis=fake)
+    assert b.success and b.ensemble.violations.max() <= 1e-9

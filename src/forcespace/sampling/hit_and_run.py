@@ -167,7 +167,32 @@ def frame(problem: StaticsProblem, analysis=None):
         raise NumericalError(f"the centre of S violates inequality row {free[bad][0]} by "
                              f"{-s0[bad].min() / problem.force_scale:.3g} <Fn>, and no point "
                              f"of the affine hull satisfies it better")
-    return xc, N, H0[~flat], s0[~flat], free[~flat], an
+    H0, s0 = H0[~flat], s0[~flat]
+    if H0.shape[1] and s0.size and s0.min() <= 0:
+        # the centre, projected onto the hull, sits on (or a round-off outside) a facet of a
+        # thin S: recentre in the frame's own coordinates, where no projection intervenes
+        y = _frame_centre(H0, s0, problem)
+        xc, s0 = xc + N @ y, s0 - H0 @ y
+    return xc, N, H0, s0, free[~flat], an
+
+
+def _frame_centre(H0, s0, problem) -> np.ndarray:
+    """The Chebyshev centre y (d,) of {H0 y <= s0} [F0] (max t: H0 y + t |H0_i| <= s0);
+    NumericalError when S has no interior point in its hull (t <= 0)."""
+    from scipy.optimize import linprog
+
+    norms = np.linalg.norm(H0, axis=1)
+    d = H0.shape[1]
+    c = np.zeros(d + 1)
+    c[-1] = -1.0
+    res = linprog(c, A_ub=np.column_stack([H0, norms]), b_ub=s0,
+                  bounds=[(None, None)] * d + [(None, problem.force_scale)], method="highs")
+    if res.status != 0 or res.x[-1] <= 0:
+        raise NumericalError(f"S has no interior point in its affine hull to start from "
+                             f"(Chebyshev radius in the frame "
+                             f"{res.x[-1] / problem.force_scale if res.status == 0 else float('nan'):.2g} "
+                             f"<Fn>: S is numerically thinner than its dimension says)")
+    return res.x[:d]
 
 
 

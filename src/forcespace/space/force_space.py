@@ -270,9 +270,41 @@ def _chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None,
     res = solve_lp(c, Aub, np.zeros(free.size), Aeq, rhs,
               bounds_list(lo, hi) + [(0.0, r_max)],
               attempts=attempts_for(problem), known_feasible=True)
-    if res.status != 0:
+    if res.status == 0:
+        return res.x[:m2], float(res.x[-1])
+    # a thin S (radius ~1e-10 <Fn>) can leave HiGHS "Unknown" on every attempt in the full
+    # space (n = 400, mu = 1: dim S 2); in the hull's own coordinates the LP has d + 1
+    # unknowns and no equalities
+    hull = _hull_centre(Gf, Eq, rhs, N, lo, hi, r_max) if m2 <= HULL_CENTRE_MAX_COLUMNS \
+        else None
+    if hull is None:
         raise NumericalError(f"Chebyshev-centre LP failed: {res.message}")
-    return res.x[:m2], float(res.x[-1])
+    return hull
+
+
+HULL_CENTRE_MAX_COLUMNS = 6000   # the fallback below solves the equalities densely
+
+
+def _hull_centre(Gf, Eq, rhs, N, lo, hi, r_max):
+    """(x, radius) of the Chebyshev centre found in the affine hull's coordinates
+    x = x_p + N y (x_p a particular solution; the bounds lo <= x <= hi as rows), or None."""
+    xp = sla.lstsq(Eq.toarray(), rhs)[0]
+    rows, slack = [np.asarray(Gf @ N)], [-np.asarray(Gf @ xp)]
+    for sign, bound in ((-1.0, lo), (1.0, hi)):
+        k = np.isfinite(bound)
+        rows.append(sign * N[k])
+        slack.append(sign * (bound[k] - xp[k]))
+    H, s = np.vstack(rows), np.concatenate(slack)
+    norms = np.linalg.norm(H, axis=1)
+    live = norms > config.FLAT_ROW
+    d = N.shape[1]
+    c = np.zeros(d + 1)
+    c[-1] = -1.0
+    res = solve_lp(c, np.column_stack([H[live], norms[live]]), s[live],
+                   bounds=[(None, None)] * d + [(0.0, r_max)], known_feasible=True)
+    if res.status != 0:
+        return None
+    return xp + N @ res.x[:d], float(res.x[-1])
 
 
 def _implicit_kinds(implicit_rows, owner, kind):
