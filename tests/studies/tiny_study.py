@@ -52,13 +52,14 @@ def task(theta, mu, samples, seed, fail, workdir) -> dict:
 
 
 def summarize(results, out) -> dict:
-    from forcespace_studies.report import Verdict, write_csv, write_section
+    from forcespace_studies.report import RULES_VERSION, Verdict, write_csv, write_section
 
     out = Path(out)
     rows = [dict(row, task=r["task"]) for r in results if r["ok"] for row in r["rows"]]
     write_csv(out / "tiny.csv", rows, ["task", "theta", "seed", "eta", "n", "dim_S"])
     write_section(out, "tiny", "A tiny study", json.dumps({"rows": len(rows)}),
                   [Verdict("tiny", "grooves are indeterminate with friction",
-                           f"{len(rows)} grooves", "reproduced")], {"rows": len(rows)}, [])
+                           f"{len(rows)} grooves", "reproduced")], {"rows": len(rows)}, [],
+                  rules_version=RULES_VERSION)
     return {"tasks": len(results), "failed": sum(not r["ok"] for r in results),
             "rows": len(rows), "verdicts": ["reproduced"]}
