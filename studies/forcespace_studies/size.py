@@ -411,7 +411,7 @@ def _by_n_table(rows, mus) -> list[dict]:
 
 def summarize(results: list[dict], out) -> dict:
     """size.csv (one row per packing), size_by_n.csv, size.png/.pdf, verdicts, REPORT.md."""
-    from .report import RULES_VERSION, write_csv, write_section
+    from .report import RULES_VERSION, study_info, write_csv, write_section
 
     out = Path(out)
     rows = _rows(results)
@@ -432,6 +432,15 @@ def summarize(results: list[dict], out) -> dict:
                     "failed": [f"{r['task']}: {r.get('error')}" for r in failed],
                     "by_n": by_n})
     text = _text(rows, fits, mus)
+    total = study_info(out).get("tasks")
+    if rows:
+        text += ("\n\nPackings per (mu, n) and what entered the fits (converged runs with eta "
+                 "> 0; determinate ones counted after the +; mean eta over the former with "
+                 "its 95 % bootstrap interval):\n\n" + packings_table(by_n))
+    if total and len(results) < total:
+        text += (f"\n\n{len(results)} of the {total} tasks of the study were done when this "
+                 f"summary was written (a run stopped at its deadline; the runner resumes "
+                 f"the rest): the packings counted above are those done.")
     if failed:
         text += (f"\n\n{len(failed)} of {len(results)} tasks failed as a whole (no packing "
                  f"or no analysis row); the reasons are under `failed` in the numbers below.")
@@ -609,6 +618,36 @@ def _verdicts(rows, fits, mus):
     return numbers, verdicts
 
 
+def _caps(params) -> str:
+    caps = params.get("caps") or {}
+    cap = " / ".join(f"{v} ({k.replace('_', '-')})" for k, v in caps.items())
+    sec = params.get("max_seconds")
+    return f"{cap} samples" + (f" and {sec:g} s per run" if sec else "")
+
+
+def packings_table(by_n) -> str:
+    """Markdown: per (mu, n) the packings, the converged runs that enter the fits
+    (eta > 0 / determinate) and excluded, and the means with their 95 % intervals."""
+    def eta(b, key):
+        if b.get(f"{key}_mean") is None:
+            return "-"
+        return f"{b[f'{key}_mean']:.4f} [{b[f'{key}_lo']:.4f}, {b[f'{key}_hi']:.4f}]"
+    lines = ["| mu | n | packings | billiard: converged (eta > 0 + eta = 0), excluded, "
+             "failed | hit-and-run: same | dim S / Nc | eta, slice (billiard) | "
+             "eta, window (billiard) | varying fraction, window |", "|" + "---|" * 9]
+    for b in by_n:
+        cell = {k: f"{b[f'eta_{k}_packings']} + {b[f'eta_{k}_zeros']}, "
+                   f"{b[f'{k}_excluded']}, {b[f'{k}_failed']}"
+                if b[f"{k}_converged"] + b[f"{k}_excluded"] + b[f"{k}_failed"] else "not run"
+                for k in UNIFORM}
+        vw = b["window_varying_fraction_mean"]
+        lines.append(f"| {b['mu']:g} | {b['n']} | {b['packings']} | {cell['billiard']} | "
+                     f"{cell['hit_and_run']} | {b['dim_S_over_Nc_mean']:.3f} | "
+                     f"{eta(b, 'eta_billiard')} | {eta(b, 'eta_window_billiard')} | "
+                     + (f"{vw:.3f} |" if vw is not None else "- |"))
+    return "\n".join(lines)
+
+
 def _text(rows, fits, mus) -> str:
     if not rows:
         return "No finished task."
@@ -637,7 +676,7 @@ def _text(rows, fits, mus) -> str:
         f"eta is the uniform measure's: the billiard walk at every size and coordinate "
         f"hit-and-run (the reference) at n = {', '.join(map(str, har)) or '-'}; each runs 4 "
         f"chains to ESS 100 on every tracked statistic with split R-hat <= 1.05 (rule 4), "
-        f"capped at {params.get('caps')} samples and {params.get('max_seconds')} s. "
+        f"capped at {_caps(params)}. "
         f"Runs that did not converge keep their rows and are excluded from the fits and "
         f"verdicts (counted per (n, mu) in the verdicts and under `runs_per_mu_and_n`): "
         f"billiard {ex['billiard']} excluded and {fl['billiard']} failed, hit-and-run "
@@ -660,7 +699,8 @@ def _text(rows, fits, mus) -> str:
         f"comparison, per mu: the power law log eta = a + b log n against the saturating "
         f"law eta = eta_inf (1 - c n^(-1/2)), both two-parameter least squares on log eta, "
         f"compared by AIC = N ln(RSS / N) + 2k; a difference > {AIC_MARGIN:g} favours the "
-        f"lower, otherwise both fit.\n\n{models}\n\n"
+        f"lower, otherwise both fit.\n\n"
+        f"{models or '- no model comparison yet (it needs 4 packings at 3 sizes)'}\n\n"
         f"rho (elementary clusters per slice disk, a greedy circuit basis: a lower bound) is "
         f"computed where dim S <= {params.get('clusters_max_dim', '?')} only; percolating: "
         f"a domain touches both the top and the bottom load of the slice.")
