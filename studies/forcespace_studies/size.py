@@ -439,7 +439,15 @@ def summarize(results: list[dict], out) -> dict:
                     "failed": [f"{r['task']}: {r.get('error')}" for r in failed],
                     "by_n": by_n})
     text = _text(rows, fits, mus)
-    total = study_info(out).get("tasks")
+    info = study_info(out)
+    total = info.get("tasks")
+    last = (info.get("config") or {}).get("last") or ()
+    if last:
+        text += ("\n\nRun last, after every seed round of the others: " + ", ".join(
+            f"n = {n}, mu = {mu:g}" for n, mu in last) + " (the 2000-disk jams at mu = 1 "
+            "creep: seed 1 ran 70 000 steps, 28 min of a shared core, with mean speed ~0 and "
+            "peaks of 1e-4 R/T, without meeting the rest criterion, and held one of the two "
+            "workers; they resume from their compression checkpoints).")
     if rows:
         text += ("\n\nPackings per (mu, n) and what entered the fits (converged runs with eta "
                  "> 0; determinate ones counted after the +; mean eta over the former with "
@@ -522,12 +530,14 @@ def _figure(out, rows, by_n, fits, mus) -> None:
         a4.plot([b["n"] for b in ok], [b["largest_domain_fraction_mean"] for b in ok], "^--",
                 color=c, mfc="none", label=rf"$\mu$ = {mu:g}: largest domain / Nc")
     a3.set(xscale="log", xlabel="n (disks in the box)", ylabel="fraction of contacts",
-           title="dim S per slice contact; contacts whose force varies in S")
+           ylim=(-0.03, 1.45), title="dim S per slice contact; contacts whose force varies in S")
     a4.set(xscale="log", xlabel="n (disks in the box)", ylabel="fraction",
-           ylim=(-0.03, 1.03), title="percolation (a domain spans the slice) and the "
+           ylim=(-0.03, 1.35), title="percolation (a domain spans the slice) and the "
                                      "largest domain")
     for ax in (a3, a4):
-        ax.legend(fontsize=6)
+        ax.set_yticks(np.linspace(0, 1, 6))     # the room above 1 is the legend's
+    a3.legend(fontsize=6, loc="upper center", ncol=3)
+    a4.legend(fontsize=6, loc="upper center", ncol=3)
     save_figure(fig, out / "size.png", tight=True)
 
 
@@ -610,7 +620,9 @@ def _verdicts(rows, fits, mus):
                     + (f" ({c['excluded']} excluded, {c['failed']} failed)"
                        if c["excluded"] or c["failed"] else "")
                     for n, c in numbers["runs_per_mu_and_n"][k][f"mu{mu:g}"].items()
-                    if c["converged"] or c["excluded"] or c["failed"])
+                    if (c["converged"] or c["excluded"] or c["failed"]) and (
+                        scope == "slice" or any(r.get("window_contacts") is not None
+                                                for r in rows if f"n{r['n']}" == n)))
                 perc = ", ".join(f"{np.mean([r['percolates'] for r in rows if r['mu'] == mu and r['n'] == n and r.get('percolates') is not None]):.2f}"
                                  for n in sorted(sizes))
                 verdicts.append(Verdict(
