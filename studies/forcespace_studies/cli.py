@@ -11,7 +11,7 @@ DESCRIPTION = {
     "fig3": "distances from the centre of S, cross-section, uniformity (the paper's Fig. 3)",
     "pointforce": "depth of the rearrangement under a point force, against mu",
     "selection": "where in S a soft code lands: the elastic selection",
-    "size": "eta, dim S and clusters against the number of disks",
+    "size": "uniform eta, dim S and domains against the number of disks",
 }
 
 

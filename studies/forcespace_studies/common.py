@@ -54,9 +54,10 @@ SAMPLERS = ("hit_and_run", "relax")
 
 
 def sampler(name: str, seed: int, cap: int, max_seconds, **options):
-    """The study's sampler ``name`` ("hit_and_run" or "relax"): 4 chains run to ESS 100 on
-    every tracked statistic, capped at ``cap`` samples and ``max_seconds``."""
-    cls = fs.HitAndRun if name == "hit_and_run" else fs.RelaxWalk
+    """The study's sampler ``name`` ("hit_and_run", "billiard" or "relax"): 4 chains run
+    to ESS 100 on every tracked statistic, capped at ``cap`` samples and ``max_seconds``."""
+    cls = {"hit_and_run": fs.HitAndRun, "billiard": fs.BilliardWalk,
+           "relax": fs.RelaxWalk}[name]
     return cls(n=cap, seed=seed, chains=4, target_ess=TARGET_ESS, max_seconds=max_seconds,
                **options)
 

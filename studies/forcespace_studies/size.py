@@ -1,25 +1,31 @@
-"""Size dependence of the force ambiguity: eta, dim S / Nc and the clusters against n.
+"""Size dependence of the force ambiguity: uniform eta, dim S / Nc and the domains against n.
 
 The paper (end of its cluster section): where the elementary clusters are sparse
 (large mu) the domains fluctuate independently and eta should be intensive; where
 the indeterminacy percolates (small mu) overlapping clusters feed each other
 fluctuating boundary forces and eta grows with the system -- seen up to 500
-disks, "not clear what happens in the thermodynamic limit". This study measures
-it as a hypothesis: eta grows with n at mu <= 0.1 and is size-independent at
-mu = 1.
+disks, "not clear what happens in the thermodynamic limit". This study asks it of
+the uniform measure on S (a hypothesis: eta grows with n at mu = 0.01 and 0.1, and is
+size-independent at mu = 1), judged by the report's rules (report.RULES).
 
-Tasks: one per (n, mu, seed). The box keeps the paper's shape: width and slice
-height scale by sqrt(n / n0) from the scene's own n0 (:meth:`Scene.scaled_to`;
-paper: n0 = 200, width 42 R, slice 28 R), so the slice holds the same fraction
-of the disks at every n. Per packing: jam (or reuse; resumable through a
-compression checkpoint), the slice's S (:func:`forcespace.polytope.analyze`),
-its domains and elementary clusters (:func:`forcespace.clusters.decompose`:
-rho, largest domain, percolation), eta from uniform hit-and-run at every size
-and from the paper's relax walk up to ``relax_max_n`` disks only (its cost grows
-with dim S much faster; the fit uses hit-and-run everywhere). Each sampler stops
-at ``samples`` or after ``max_seconds`` (the count reached and hit-and-run's
-R-hat are in the table: a capped chain that has not mixed underestimates eta;
-below ``MIN_SAMPLES`` samples no eta is given).
+Tasks: one per (n, mu, seed), seed-major (every size and mu of seed 1, then of seed 2,
+...), so an interrupted run holds complete seed rounds. The box keeps the paper's
+shape: width and slice height scale by sqrt(n / n0) from the scene's own n0
+(:meth:`Scene.scaled_to`; paper: n0 = 200, width 42 R, slice 28 R), so the slice holds
+the same fraction of the disks at every n. Per packing: jam (resumable through a
+compression checkpoint), the slice's S (:func:`forcespace.polytope.analyze`), its
+domains (contacts whose force varies in S) and percolation, elementary clusters (rho)
+where dim S is small enough, and uniform eta from the billiard walk at every size and
+from coordinate hit-and-run (the reference) up to ``har_max_n`` disks; each sampler runs
+4 chains to ESS 100 (rule 4), capped in samples and time. The relax walk is not run: it
+does not sample S uniformly (fig3), and the size question is asked of uniform eta.
+
+Bulk and boundary: besides the whole scaled slice, eta and the fraction of varying
+contacts are measured on a FIXED interior window: the unknown contacts whose contact
+point lies in a box of the scene's n0 slice size (paper_fast: 42 R wide, 28 R high),
+centred in the slice (horizontally in the periodic box, vertically on the slice
+centre), from the same samples restricted to those contacts' columns. The window is
+defined only where it lies inside the slice (n >= n0); at n = n0 it is the slice.
 """
 from __future__ import annotations
 
@@ -29,39 +35,39 @@ from pathlib import Path
 import numpy as np
 
 import forcespace as fs
+from forcespace.measures import eta as eta_of
 from forcespace.space.structure import ClusterDecomposition, decompose, domains, percolates
 from forcespace.sweep import Task
 
-from .common import shared_packing
-from .common import run_samplers, sampler
+from .common import run_samplers, sampler, shared_packing
 from .stats import slope_fit
 
-# seeds: packings per size (seeds 1..k); relax_max_n: largest n sampled by the relax
-# walk too; clusters_max_dim: largest dim S decomposed into elementary clusters (one LP
-# per degree of freedom; above it domains and percolation only, rho left empty).
-# Measured at n = 500, mu = 0.1 (dim S = 143, 2 cores shared with ~8 other processes,
-# wall): jam 645 s, analysis 2.5 s, clusters 399 s, hit-and-run 50 s (100 samples),
-# relax walk 191 s (100 samples). The cluster LPs grow with dim S and the domain's
-# size together, hence the cap; at mu = 1 (small dim S) rho is measured at every n.
-QUICK = dict(scene="quick", sizes=(40, 60), mus=(0.1,), seeds={40: 2, 60: 2}, samples=20,
-             max_seconds=None, relax_max_n=40, clusters_max_dim=400)
-# FULL runs the paper's protocol with the fast sweep (inputs/paper_fast.toml: same
-# physics, runs of contacts + over-relaxation) at every size, so that all sizes share
-# one engine; sizes from 100 to 2000 (a 2000-disk task costs ~20-30 min of jamming plus
-# hit-and-run at dim S ~ 500-1000, capped at max_seconds)
+# seeds: packings per size (seeds 1..k); caps: samples per sampler (4 chains, the run
+# stops at ESS 100 on every tracked statistic, or at the cap / max_seconds: then it is
+# excluded from verdicts); har_max_n: largest n sampled by hit-and-run too (its cost per
+# effective sample is 300-900x the billiard walk's: studies/sampler_cost.md);
+# clusters_max_dim: largest dim S decomposed into elementary clusters (one LP per degree
+# of freedom, ~40 s at dim 110-130; above it domains and percolation only, rho empty).
+QUICK = dict(scene="quick", sizes=(40, 50, 60), mus=(0.1,), seeds=2,
+             caps={"billiard": 4000, "hit_and_run": 1500}, max_seconds=None, har_max_n=60,
+             clusters_max_dim=400)
+# FULL: the paper's protocol with the fast sweep (inputs/paper_fast.toml: same physics,
+# runs of contacts + over-relaxation) at every size. n = 5000 is not run: its jam costs
+# ~750 CPU s, so the issue's 4 seeds x 3 mu are ~2.5 CPU-h of jamming alone.
 FULL = dict(scene="paper_fast", sizes=(100, 200, 400, 800, 2000), mus=(0.01, 0.1, 1.0),
-            seeds={100: 3, 200: 3, 400: 3, 800: 2, 2000: 2}, samples=100,
-            max_seconds=900.0, relax_max_n=200, clusters_max_dim=150)
-GROWS_MU = 0.1         # the hypothesis: eta grows at mu <= GROWS_MU ...
-INTENSIVE_MU = 1.0     # ... and is size-independent at mu = INTENSIVE_MU
-FLAT = 0.1             # |slope| of log eta vs log n below which eta counts as intensive
-REUSE = ("fig1",)      # only at n = n0, where the box is the scene's own
-MIN_SAMPLES = 10       # a run capped below this many samples gives no eta (one sample: 0)
-# Above this dim S hit-and-run thins d^2 / 4 steps and burns in 2 d^2 per chain (not the
-# defaults d^2 and 10 d^2): at dim 1087 (2000 disks, mu = 0.01; 19 us per step) the
-# default burn-in alone is 15 min, the whole max_seconds, and the capped run kept 1
-# sample. R-hat in the table says whether the shorter chains mixed.
-HAR_BIG_DIM = 800
+            seeds=10, caps={"billiard": 20000, "hit_and_run": 3000}, max_seconds=900.0,
+            har_max_n=400, clusters_max_dim=60, last=((2000, 1.0),))
+# last: (n, mu) run after every seed round of the others. The 2000-disk jams at mu = 1
+# creep (seed 1: 70 000 steps in 28 min of a shared core, mean speed ~0, peaks 1e-4 R/T,
+# never below the rest criterion; jamming.max_steps is 400 000), so one of two workers
+# sat on one jam while the rounds waited; they resume from their checkpoints at the end.
+UNIFORM = ("billiard", "hit_and_run")   # the uniform samplers, in the order they are judged
+GROWS_MUS = (0.01, 0.1)   # the hypothesis: eta grows with n where indeterminacy percolates
+INTENSIVE_MU = 1.0        # ... and is size-independent at mu = INTENSIVE_MU
+FLAT = 0.1                # |slope| of log eta vs log n below which eta counts as intensive
+MIN_SIZES = 3             # a sampler is judged only with converged eta at >= 3 sizes
+AIC_MARGIN = 2.0          # stated before the run: |AIC difference| > 2 favours a model
+SCOPES = ("slice", "window")
 
 
 def config(quick: bool) -> dict:
@@ -79,48 +85,53 @@ def scaled_geometry(scene: str, n: int) -> tuple[float, int, dict]:
     return float(sc["analysis.slice_height"]), int(base["disks.n"]), over
 
 
+def window_size(scene: str) -> tuple[float, float]:
+    """(width, height) [R] of the fixed window: the scene's own (n0) box width and slice
+    height."""
+    base = fs.load_scene(scene)
+    return float(base["box.width"]), float(base["analysis.slice_height"])
+
+
 def tasks(quick: bool = False) -> list[Task]:
-    """Largest systems first (the longest tasks start first on a pool), one packing
-    per mu before the next seed (an interrupted study has every mu at every size)."""
+    """Seed-major: for each seed, every size (largest first, so the longest tasks start
+    first on a pool) and every mu; an interrupted study has complete seed rounds. The
+    (n, mu) of the config's ``last`` come after all rounds (seed-major among themselves)."""
     cfg = config(quick)
+    win = window_size(cfg["scene"])
     out = []
-    for n in sorted(cfg["sizes"], reverse=True):
-        for seed in range(1, cfg["seeds"][n] + 1):
+    for seed in range(1, cfg["seeds"] + 1):
+        for n in sorted(cfg["sizes"], reverse=True):
             for mu in cfg["mus"]:
                 out.append(Task(f"n{n}_mu{mu:.3g}_s{seed}", "forcespace_studies.size:packing_task",
                                 dict(scene=cfg["scene"], n_disks=n, mu=mu, seed=seed,
-                                     samples=cfg["samples"], max_seconds=cfg["max_seconds"],
-                                     relax=n <= cfg["relax_max_n"],
-                                     clusters_max_dim=cfg["clusters_max_dim"])))
-    return out
+                                     caps=dict(cfg["caps"]), max_seconds=cfg["max_seconds"],
+                                     hit_and_run=n <= cfg["har_max_n"],
+                                     clusters_max_dim=cfg["clusters_max_dim"],
+                                     window=list(win))))
+    last = {(n, float(mu)) for n, mu in cfg.get("last", ())}
+    late = [t for t in out if (t.params["n_disks"], t.params["mu"]) in last]
+    return [t for t in out if t not in late] + late
 
 
-def packing_task(scene: str, n_disks: int, mu: float, seed: int, samples: int, workdir,
-                 max_seconds=None, relax: bool = True, clusters_max_dim: int = 400) -> dict:
-    """Jam (or reuse) the packing (n, mu, seed) in the scaled box, analyse its scaled
-    slice, its clusters, and sample it (module docstring)."""
-    wd = Path(workdir)
-    height, n0, over = scaled_geometry(scene, n_disks)
-    p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks,
-                              REUSE if n_disks == n0 else (), overrides=over)
-    rat = p.rattlers()
-    prob = fs.slice_problem(p, height)
+def window_contacts(p, prob, window) -> np.ndarray | None:
+    """Indices (into the problem's unknown contacts) of those whose contact point lies
+    in the fixed window (width, height) centred in the slice; None when the window does
+    not fit inside the slice (it would not be fixed)."""
+    w, h = window
+    if w > p.width * (1 + 1e-9) or h > prob.height * (1 + 1e-9):
+        return None
+    yc = 0.5 * (p.y_bottom + p.y_top) if np.isfinite(p.y_bottom) and np.isfinite(p.y_top) \
+        else 0.5 * (np.min(p.y) + np.max(p.y))
+    pt = np.asarray(p.point, float)[prob.contacts]
+    dx = np.mod(pt[:, 0], p.width) - 0.5 * p.width     # x in [0, width), periodic
+    return np.flatnonzero((np.abs(dx) <= 0.5 * w) & (np.abs(pt[:, 1] - yc) <= 0.5 * h))
+
+
+def _structure(row, prob, an, p, clusters_max_dim, win):
+    """Domains (varying contacts), percolation, rho where dim S is small, and the
+    window's varying fraction, into ``row``."""
     t0 = time.perf_counter()
-    an = fs.ForceSpace().compute(prob)
     nc = prob.n_contacts
-    row = {"n": n_disks, "mu": mu, "seed": seed, "width": p.width, "slice_height": height,
-           "z": p.coordination(), "n_rattlers": int(rat.sum()),
-           "slice_disks": prob.n_interior, "slice_contacts": nc, "feasible": an.feasible,
-           "bounded": an.bounded, "full_row_rank": an.full_row_rank, "dim_S": an.dim,
-           "dim_S_over_Nc": an.dim / nc if an.dim is not None and nc else None,
-           "degree_of_indeterminacy": an.degree_of_indeterminacy,
-           "n_sliding": an.n_sliding, "n_zero_force": an.n_zero,
-           "t_jam_s": t_jam, "t_analyze_s": time.perf_counter() - t0,
-           "eta_hit_and_run": None, "eta_relax": None}
-    if not an.feasible:
-        return row
-    # clusters: circuits (rho) up to clusters_max_dim, domains and percolation always
-    t0 = time.perf_counter()
     if an.dim and an.dim <= clusters_max_dim:
         dec = decompose(prob, an, p)
         rho = dec.density
@@ -130,44 +141,81 @@ def packing_task(scene: str, n_disks: int, mu: float, seed: int, samples: int, w
                                    percolates=[percolates(prob, p, g) for g in doms],
                                    n_interior=prob.n_interior)
         rho = 0.0 if not an.dim else None
+    varying = np.zeros(nc, bool)
+    for g in dec.domains:
+        varying[np.asarray(g.contacts, int)] = True
     row.update(n_domains=len(dec.domains), n_elementary=dec.n_elementary if rho is not None
                else None, density_rho=rho,
                largest_domain_fraction=max((g.contacts.size for g in dec.domains),
                                            default=0) / max(nc, 1),
-               varying_fraction=sum(g.contacts.size for g in dec.domains) / max(nc, 1),
-               percolates=bool(any(dec.percolates)),
-               t_clusters_s=time.perf_counter() - t0)
-    if not an.bounded:
+               varying_fraction=float(varying.sum() / max(nc, 1)),
+               percolates=bool(any(dec.percolates)), t_clusters_s=time.perf_counter() - t0)
+    if win is not None:
+        row.update(window_contacts=int(win.size),
+                   window_varying_fraction=float(varying[win].mean()) if win.size else None)
+
+
+def packing_task(scene: str, n_disks: int, mu: float, seed: int, workdir, caps: dict,
+                 max_seconds=None, hit_and_run: bool = True, clusters_max_dim: int = 400,
+                 window=(42.0, 28.0)) -> dict:
+    """Jam (or reuse) the packing (n, mu, seed) in the scaled box, analyse its scaled
+    slice and its domains, and sample S uniformly (module docstring)."""
+    wd = Path(workdir)
+    height, n0, over = scaled_geometry(scene, n_disks)
+    p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks, overrides=over)
+    prob = fs.slice_problem(p, height)
+    t0 = time.perf_counter()
+    an = fs.ForceSpace().compute(prob)
+    nc = prob.n_contacts
+    win = window_contacts(p, prob, window)
+    row = {"n": n_disks, "mu": mu, "seed": seed, "width": p.width, "slice_height": height,
+           "window_width": window[0], "window_height": window[1],
+           "z": p.coordination(), "n_rattlers": int(p.rattlers().sum()),
+           "slice_disks": prob.n_interior, "slice_contacts": nc, "feasible": an.feasible,
+           "bounded": an.bounded, "full_row_rank": an.full_row_rank, "dim_S": an.dim,
+           "dim_S_over_Nc": an.dim / nc if an.dim is not None and nc else None,
+           "degree_of_indeterminacy": an.degree_of_indeterminacy,
+           "n_sliding": an.n_sliding, "n_zero_force": an.n_zero, "analysis_ok": an.success,
+           "t_jam_s": t_jam, "t_analyze_s": time.perf_counter() - t0}
+    if not (an.success and an.feasible and an.bounded):
+        row["error_analysis"] = an.message if not an.success else "S empty or unbounded"
         return row
-    runs = []
-    if an.dim:
-        d = an.dim
-        shorter = dict(thin=d * d // 4, burn_in=2 * d * d) if d > HAR_BIG_DIM else {}
-        runs.append(("hit_and_run", sampler("hit_and_run", seed, samples, max_seconds,
-                                            **shorter)))
-        if relax:
-            runs.append(("relax", sampler("relax", seed, samples, max_seconds)))
-    else:                                   # S is one point: no ambiguity (mu > 0)
-        row["eta_hit_and_run"] = 0.0
-        row["eta_relax"] = 0.0 if relax else None
-    run_samplers(row, runs, prob, wd)
+    _structure(row, prob, an, p, clusters_max_dim, win)
+    names = ["billiard"] + (["hit_and_run"] if hit_and_run else [])
+    if not an.dim:                          # S is one point: no ambiguity (mu > 0)
+        for k in names:
+            row.update({f"eta_{k}": 0.0, f"converged_{k}": True, f"n_{k}": 0})
+            if win is not None:
+                row[f"eta_window_{k}"] = 0.0
+        return row
+    runs = [(k, sampler(k, seed, caps[k], max_seconds)) for k in names]
+    ens = run_samplers(row, runs, prob, wd)
+    for k, e in ens.items():
+        if e is not None and win is not None and win.size and e.n_samples >= 2:
+            cols = np.stack([2 * win, 2 * win + 1], 1).ravel()
+            row[f"eta_window_{k}"] = eta_of(e.samples[:, cols])
     return row
 
 
-ROW_KEYS = ["task", "n", "mu", "seed", "width", "slice_height", "z", "n_rattlers",
-            "slice_disks", "slice_contacts", "full_row_rank", "dim_S", "dim_S_over_Nc",
+ROW_KEYS = ["task", "n", "mu", "seed", "width", "slice_height", "window_width",
+            "window_height", "z", "n_rattlers", "slice_disks", "slice_contacts",
+            "window_contacts", "full_row_rank", "analysis_ok", "dim_S", "dim_S_over_Nc",
             "degree_of_indeterminacy", "n_sliding", "n_zero_force", "n_domains",
             "n_elementary", "density_rho", "largest_domain_fraction", "varying_fraction",
-            "percolates", "eta_hit_and_run", "eta_relax", "n_hit_and_run", "n_relax",
-            "rhat_hit_and_run", "thin_hit_and_run", "relax_projected", "t_jam_s",
-            "t_analyze_s", "t_clusters_s", "t_hit_and_run_s", "t_relax_s"]
+            "window_varying_fraction", "percolates",
+            "eta_billiard", "eta_window_billiard", "converged_billiard", "n_billiard",
+            "ess_billiard", "rhat_billiard", "stop_billiard", "error_billiard",
+            "eta_hit_and_run", "eta_window_hit_and_run", "converged_hit_and_run",
+            "n_hit_and_run", "ess_hit_and_run", "rhat_hit_and_run", "stop_hit_and_run",
+            "error_hit_and_run", "error_analysis", "t_jam_s", "t_analyze_s", "t_clusters_s",
+            "t_billiard_s", "t_hit_and_run_s"]
 
 
 # ----------------------------------------------------------------------------
-# the fit and the decision
+# the fits and the decision
 # ----------------------------------------------------------------------------
 def slope_interval(n, eta, level: float = 0.95) -> dict:
-    """Least-squares slope of log eta against log n (:func:`fig1.slope_fit`), its
+    """Least-squares slope of log eta against log n (:func:`stats.slope_fit`), its
     standard error and its ``level`` t-interval (df = points - 2); the residual sd
     on log eta; nan where fewer than 3 points or a single size."""
     from scipy.stats import t as student
@@ -240,164 +288,269 @@ def needed(fit: dict, n, flat: float = FLAT, add: int = 4, level: float = 0.95) 
     return out
 
 
+def compare_models(n, eta) -> dict:
+    """Power law log eta = a + b log n against the saturating law
+    eta = eta_inf (1 - c n^(-1/2)), both fitted by least squares on log eta over the
+    packings (two parameters each; c < 0 approaches eta_inf from above). AIC =
+    N ln(RSS / N) + 2 k; a difference > AIC_MARGIN favours the lower, else "both fit"."""
+    from scipy.optimize import minimize_scalar
+
+    n, y = np.asarray(n, float), np.log(np.asarray(eta, float))
+    k = int(n.size)
+    if k < 4 or np.unique(n).size < 3:
+        return {"points": k, "preferred": "no fit (needs 4 packings at 3 sizes)"}
+    x = np.log(n)
+    b, a = np.polyfit(x, y, 1)
+    rss_pow = float(((y - a - b * x) ** 2).sum())
+    u = n ** -0.5
+
+    def rss_sat(c):
+        r = y - np.log1p(-c * u)
+        return float(((r - r.mean()) ** 2).sum())
+    cmax = (1 - 1e-9) / u.max()
+    best = minimize_scalar(rss_sat, bounds=(-50 * cmax, cmax), method="bounded",
+                           options={"xatol": 1e-10})
+    c = float(best.x)
+    log_inf = float((y - np.log1p(-c * u)).mean())
+    aic = {m: k * np.log(max(r, 1e-300) / k) + 2 * 2
+           for m, r in (("power", rss_pow), ("saturating", rss_sat(c)))}
+    d = aic["power"] - aic["saturating"]
+    pref = ("saturating" if d > AIC_MARGIN else "power" if d < -AIC_MARGIN else "both fit")
+    return {"points": k, "power": {"a": float(a), "b": float(b), "aic": float(aic["power"])},
+            "saturating": {"eta_inf": float(np.exp(log_inf)), "c": c,
+                           "aic": float(aic["saturating"]), "at_bound": bool(
+                               abs(c - cmax) < 1e-6 * cmax or c <= -50 * cmax * 0.999)},
+            "aic_power_minus_saturating": float(d), "preferred": pref}
+
+
+# ----------------------------------------------------------------------------
+# the summary
+# ----------------------------------------------------------------------------
 def _rows(results):
     return [dict(r, task=r["task"]) for r in results if r.get("ok")]
 
 
-def _group(rows, key, mu):
-    """{n: array of key over the packings at mu} (None dropped; bools as 0/1)."""
-    out: dict = {}
-    for r in rows:
-        if r["mu"] == mu and r.get(key) is not None:
-            out.setdefault(r["n"], []).append(float(r[key]))
-    return {n: np.array(v) for n, v in sorted(out.items())}
+def _eta_key(scope: str, k: str) -> str:
+    return f"eta_{k}" if scope == "slice" else f"eta_window_{k}"
 
 
-def _fit_eta(rows, mu):
-    pts = [(r["n"], r["eta_hit_and_run"]) for r in rows
-           if r["mu"] == mu and r.get("eta_hit_and_run")]
-    n = np.array([p[0] for p in pts], float)
-    e = np.array([p[1] for p in pts], float)
+def eta_points(rows, mu, k, scope="slice"):
+    """(n, eta) arrays of the converged runs of sampler k at mu (rule 4) with eta > 0,
+    and the count of converged determinate ones (eta = 0, left out of the log fits)."""
+    key = _eta_key(scope, k)
+    ok = [r for r in rows if r["mu"] == mu and r.get(f"converged_{k}")
+          and r.get(key) is not None]
+    pos = [(r["n"], r[key]) for r in ok if r[key] > 0]
+    n = np.array([q[0] for q in pos], float)
+    e = np.array([q[1] for q in pos], float)
+    return n, e, len(ok) - len(pos)
+
+
+def counts(rows, mu, n, k) -> dict:
+    """Packings at (n, mu) and what sampler k made of them: converged (entering the
+    verdicts), excluded (sampled, not converged or capped: rule 4), failed (the run
+    raised), not run (analysis failed, or hit-and-run above its largest n)."""
+    here = [r for r in rows if r["mu"] == mu and r["n"] == n]
+    conv = sum(1 for r in here if r.get(f"converged_{k}"))
+    fail = sum(1 for r in here if r.get(f"error_{k}"))
+    exc = sum(1 for r in here if r.get(f"eta_{k}") is not None and not r.get(f"converged_{k}")
+              and not r.get(f"error_{k}"))
+    return {"packings": len(here), "converged": conv, "excluded": exc, "failed": fail,
+            "not_run": len(here) - conv - exc - fail}
+
+
+def _fit(rows, mu, k, scope) -> dict:
+    n, e, zeros = eta_points(rows, mu, k, scope)
     fit = slope_interval(n, e)
+    fit["sizes"] = int(np.unique(n).size)
     fit["bootstrap_ci95"] = bootstrap_slope(n, e)
     fit["call"] = classify(*fit["ci95"])
-    fit["zeros_left_out"] = sum(1 for r in rows if r["mu"] == mu
-                                and r.get("eta_hit_and_run") == 0.0)
+    fit["zeros_left_out"] = zeros
+    fit["models"] = compare_models(n, e)
     if fit["call"] == "undecided" and np.isfinite(fit["slope"]):
         fit["needed"] = needed(fit, n)
     return fit
 
 
-def _lin_slope(groups):
-    """Slope of a per-packing quantity against log10 n, and its standard error."""
-    x = np.concatenate([np.full(v.size, np.log10(n)) for n, v in groups.items()]) \
-        if groups else np.zeros(0)
-    y = np.concatenate(list(groups.values())) if groups else np.zeros(0)
-    if x.size < 3 or np.ptp(x) == 0:
-        return {"per_decade": float("nan"), "se": float("nan")}
-    X = np.column_stack([np.ones_like(x), x])
-    coef = np.linalg.lstsq(X, y, rcond=None)[0]
-    r = y - X @ coef
-    cov = (r @ r) / (x.size - 2) * np.linalg.inv(X.T @ X)
-    return {"per_decade": float(coef[1]), "se": float(np.sqrt(cov[1, 1]))}
+def _fraction_zero(rows):
+    d = [r["dim_S"] for r in rows if r.get("dim_S") is not None]
+    return float(np.mean([x == 0 for x in d])) if d else None
+
+
+def _by_n_table(rows, mus) -> list[dict]:
+    from .stats import bootstrap_mean
+
+    out = []
+    for mu in mus:
+        for n in sorted({r["n"] for r in rows if r["mu"] == mu}):
+            here = [r for r in rows if r["mu"] == mu and r["n"] == n]
+
+            def mean(key, rs=here):
+                v = [float(r[key]) for r in rs if r.get(key) is not None]
+                return float(np.mean(v)) if v else None
+            row = {"mu": mu, "n": n, "packings": len(here),
+                   "slice_disks_mean": mean("slice_disks"), "z_mean": mean("z"),
+                   "dim_S_over_Nc_mean": mean("dim_S_over_Nc"),
+                   "fraction_dim_S_0": _fraction_zero(here),
+                   "varying_fraction_mean": mean("varying_fraction"),
+                   "window_varying_fraction_mean": mean("window_varying_fraction"),
+                   "window_contacts_mean": mean("window_contacts"),
+                   "density_rho_mean": mean("density_rho") if all(
+                       r.get("density_rho") is not None for r in here) else None,
+                   "percolating_fraction": mean("percolates"),
+                   "largest_domain_fraction_mean": mean("largest_domain_fraction")}
+            for k in UNIFORM:
+                c = counts(rows, mu, n, k)
+                row.update({f"{k}_{q}": v for q, v in c.items() if q != "packings"})
+                for scope in SCOPES:
+                    key = _eta_key(scope, k)
+                    v = [r[key] for r in here if r.get(f"converged_{k}")
+                         and r.get(key) is not None]
+                    pos = [x for x in v if x > 0]     # the population of the log fits
+                    b = bootstrap_mean({0: pos}).get(0) if pos else None
+                    row.update({f"{key}_mean": b[0] if b else None,
+                                f"{key}_lo": b[1] if b else None,
+                                f"{key}_hi": b[2] if b else None,
+                                f"{key}_packings": len(pos), f"{key}_zeros": len(v) - len(pos)})
+            out.append(row)
+    return out
 
 
 def summarize(results: list[dict], out) -> dict:
-    """size.csv (one row per packing), size_by_n.csv, size.png/.pdf (2 x 2), verdicts."""
-    from matplotlib.figure import Figure
-
-    from forcespace.plot import save_figure
-    from .report import write_csv, write_section
+    """size.csv (one row per packing), size_by_n.csv, size.png/.pdf, verdicts, REPORT.md."""
+    from .report import RULES_VERSION, study_info, write_csv, write_section
 
     out = Path(out)
     rows = _rows(results)
     failed = [r for r in results if not r.get("ok")]
     write_csv(out / "size.csv", rows, ROW_KEYS)
     mus = sorted({r["mu"] for r in rows})
-    by_n = []
-    for mu in mus:
-        g = {k: _group(rows, k, mu) for k in ("eta_hit_and_run", "eta_relax", "dim_S",
-                                               "dim_S_over_Nc", "density_rho", "percolates",
-                                               "largest_domain_fraction", "slice_disks", "z",
-                                               "rhat_hit_and_run", "n_hit_and_run")}
-        for n in sorted({r["n"] for r in rows if r["mu"] == mu}):
-            here = sum(1 for r in rows if r["mu"] == mu and r["n"] == n)
-
-            def stat(k, f=np.mean, every=False):
-                v = g[k].get(n)
-                if every and (v is None or v.size < here):   # a mean over a subset is biased
-                    return None
-                return float(f(v)) if v is not None and v.size else None
-            by_n.append({"mu": mu, "n": n, "packings": here,
-                         "slice_disks_mean": stat("slice_disks"), "z_mean": stat("z"),
-                         "eta_hit_and_run_mean": stat("eta_hit_and_run"),
-                         "eta_hit_and_run_sd": stat("eta_hit_and_run", np.std),
-                         "eta_relax_mean": stat("eta_relax"),
-                         "dim_S_over_Nc_mean": stat("dim_S_over_Nc"),
-                         "dim_S_over_Nc_sd": stat("dim_S_over_Nc", np.std),
-                         "fraction_dim_S_0": stat("dim_S", lambda v: (v == 0).mean()),
-                         "density_rho_mean": stat("density_rho", every=True),
-                         "density_rho_sd": stat("density_rho", np.std, every=True),
-                         "percolating_fraction": stat("percolates"),
-                         "largest_domain_fraction_mean": stat("largest_domain_fraction"),
-                         "rhat_hit_and_run_max": stat("rhat_hit_and_run", np.max),
-                         "n_hit_and_run_min": stat("n_hit_and_run", np.min)})
+    by_n = _by_n_table(rows, mus)
     if by_n:
         write_csv(out / "size_by_n.csv", by_n, list(by_n[0]))
-    fits = {mu: _fit_eta(rows, mu) for mu in mus}
-
-    fig = Figure(figsize=(10, 8))
-    (a1, a2), (a3, a4) = fig.subplots(2, 2)
-    for i, mu in enumerate(mus):
-        c = f"C{i}"
-        mine = [b for b in by_n if b["mu"] == mu]
-        pts = np.array([(r["n"], r["eta_hit_and_run"]) for r in rows
-                        if r["mu"] == mu and r.get("eta_hit_and_run")], float).reshape(-1, 2)
-        a1.plot(pts[:, 0], pts[:, 1], ".", color=c, alpha=0.35, ms=4)
-        ok = [b for b in mine if b["eta_hit_and_run_mean"]]
-        f = fits[mu]
-        lab = f"mu = {mu:g}"
-        if np.isfinite(f["slope"]):
-            lab += f": slope {f['slope']:.2f} [{f['ci95'][0]:.2f}, {f['ci95'][1]:.2f}]"
-            xs = np.array([pts[:, 0].min(), pts[:, 0].max()])
-            ly = np.log(pts[:, 1]).mean() + f["slope"] * (np.log(xs) - np.log(pts[:, 0]).mean())
-            a1.plot(xs, np.exp(ly), "-", color=c, lw=0.8)
-        mean = np.array([b["eta_hit_and_run_mean"] for b in ok])
-        sd = np.array([b["eta_hit_and_run_sd"] for b in ok])
-        a1.errorbar([b["n"] for b in ok], mean, [np.minimum(sd, 0.95 * mean), sd],  # log axis
-                    fmt="o", color=c, capsize=2, label=lab)
-        rel = [b for b in mine if b["eta_relax_mean"]]
-        a1.plot([b["n"] for b in rel], [b["eta_relax_mean"] for b in rel], "s", color=c,
-                mfc="none", ms=5)
-        for ax, k, sd in ((a2, "dim_S_over_Nc_mean", "dim_S_over_Nc_sd"),
-                          (a3, "density_rho_mean", "density_rho_sd")):
-            ok = [b for b in mine if b[k] is not None]
-            ax.errorbar([b["n"] for b in ok], [b[k] for b in ok], [b[sd] for b in ok],
-                        fmt="o-", color=c, capsize=2, label=f"mu = {mu:g}")
-        ok = [b for b in mine if b["percolating_fraction"] is not None]
-        a4.plot([b["n"] for b in ok], [b["percolating_fraction"] for b in ok], "o-", color=c,
-                label=f"mu = {mu:g}: percolating")
-        a4.plot([b["n"] for b in ok], [b["largest_domain_fraction_mean"] for b in ok], "^--",
-                color=c, mfc="none", label=f"mu = {mu:g}: largest domain / Nc")
-    a1.set(xscale="log", yscale="log", xlabel="n (disks)", ylabel="eta (hit-and-run)",
-           title="force ambiguity (mean ± sd, eta = 0 included; open: relax walk)")
-    a1.legend(fontsize=7)
-    a2.set(xscale="log", xlabel="n (disks)", ylabel="dim S / Nc (slice)",
-           title="dimension of S per slice contact")
-    a3.set(xscale="log", xlabel="n (disks)", ylabel="rho",
-           title="elementary clusters per slice disk")
-    a4.set(xscale="log", xlabel="n (disks)", ylabel="fraction", ylim=(-0.03, 1.03),
-           title="percolation and the largest domain")
-    for ax in (a2, a3, a4):
-        ax.legend(fontsize=7)
-    save_figure(fig, out / "size.png", tight=True)
-
+    fits = {(k, scope, mu): _fit(rows, mu, k, scope)
+            for k in UNIFORM for scope in SCOPES for mu in mus}
+    figures = []
+    if rows:
+        _figure(out, rows, by_n, fits, mus)
+        figures = ["size.png"]
     numbers, verdicts = _verdicts(rows, fits, mus)
     numbers.update({"tasks": len(results), "tasks_failed": len(failed),
                     "failed": [f"{r['task']}: {r.get('error')}" for r in failed],
                     "by_n": by_n})
-    text = _text(rows)
+    text = _text(rows, fits, mus)
+    info = study_info(out)
+    total = info.get("tasks")
+    last = (info.get("config") or {}).get("last") or ()
+    if last:
+        text += ("\n\nRun last, after every seed round of the others: " + ", ".join(
+            f"n = {n}, mu = {mu:g}" for n, mu in last) + " (the 2000-disk jams at mu = 1 "
+            "creep: seed 1 ran 70 000 steps, 28 min of a shared core, with mean speed ~0 and "
+            "peaks of 1e-4 R/T, without meeting the rest criterion, and held one of the two "
+            "workers; they resume from their compression checkpoints).")
+    if rows:
+        text += ("\n\nPackings per (mu, n) and what entered the fits (converged runs with eta "
+                 "> 0; determinate ones counted after the +; mean eta over the former with "
+                 "its 95 % bootstrap interval):\n\n" + packings_table(by_n))
+    if total and len(results) < total:
+        text += (f"\n\n{len(results)} of the {total} tasks of the study were done when this "
+                 f"summary was written (a run stopped at its deadline; the runner resumes "
+                 f"the rest): the packings counted above are those done.")
     if failed:
-        text += (f"\n\n{len(failed)} of {len(results)} tasks failed and are left out (the "
-                 f"reasons are listed under `failed` in the numbers below).")
-    write_section(out, "size", "Size dependence: eta, dim S and the clusters against n", text,
-                  verdicts, numbers, figures=["size.png"])
+        text += (f"\n\n{len(failed)} of {len(results)} tasks failed as a whole (no packing "
+                 f"or no analysis row); the reasons are under `failed` in the numbers below.")
+    write_section(out, "size", "Size dependence: uniform eta, dim S and the domains against n",
+                  text, verdicts, numbers, figures=figures, rules_version=RULES_VERSION)
     return {"tasks": len(results), "failed": len(failed), "rows": len(rows),
             "table": str(out / "size.csv"), "figure": str(out / "size.png"),
-            "slopes": {f"{mu:g}": {"slope": fits[mu]["slope"], "ci95": fits[mu]["ci95"],
-                                   "call": fits[mu]["call"]} for mu in mus},
+            "slopes": {f"{k}/{scope}/{mu:g}": {"slope": f["slope"], "ci95": f["ci95"],
+                                              "call": f["call"]}
+                       for (k, scope, mu), f in fits.items()},
             "verdicts": [v.verdict for v in verdicts]}
+
+
+def _eta_panel(ax, rows, by_n, fits, mus, scope, win):
+    from .report import SAMPLERS as LABELS
+
+    for i, mu in enumerate(mus):
+        c = f"C{i}"
+        for k, mk in (("billiard", "o"), ("hit_and_run", "s")):
+            n, e, _ = eta_points(rows, mu, k, scope)
+            jit = np.exp(0.04 * (1 if k == "hit_and_run" else -1))    # side by side
+            ax.plot(n * jit, e, mk, color=c, ms=3 if k == "billiard" else 4, alpha=0.45,
+                    mfc=c if k == "billiard" else "none", lw=0)
+            key = _eta_key(scope, k)
+            b = [r for r in by_n if r["mu"] == mu and r.get(f"{key}_mean")]
+            if not b:
+                continue
+            x = np.array([r["n"] for r in b], float)
+            m = np.array([r[f"{key}_mean"] for r in b])
+            if k == "billiard":
+                ax.fill_between(x, [r[f"{key}_lo"] for r in b], [r[f"{key}_hi"] for r in b],
+                                color=c, alpha=0.18, lw=0)
+                f = fits[(k, scope, mu)]
+                lab = rf"$\mu$ = {mu:g}, {LABELS[k].split(' (')[0]}: mean, 95 % band"
+                if np.isfinite(f["slope"]):
+                    lab += f"; slope {f['slope']:.2f} [{f['ci95'][0]:.2f}, {f['ci95'][1]:.2f}]"
+                ax.plot(x, m, "-", color=c, lw=1.2, label=lab)
+            else:
+                ax.plot(x, m, "--", color=c, lw=0.9, marker="s", mfc="none", ms=5,
+                        label=rf"$\mu$ = {mu:g}, hit-and-run: mean")
+    where = ("whole scaled slice" if scope == "slice" else
+             f"fixed window {win[0]:g} R x {win[1]:g} R")
+    ax.set(xscale="log", yscale="log", xlabel="n (disks in the box)",
+           ylabel=r"$\eta = \langle \delta F\rangle / \langle |F| \rangle$ (dimensionless)",
+           title=f"uniform eta > 0, {where}\n(converged runs; markers: packings; "
+                 "band: 95 % CI of the mean)")
+    ax.legend(fontsize=6, loc="best")
+
+
+def _figure(out, rows, by_n, fits, mus) -> None:
+    from matplotlib.figure import Figure
+
+    from forcespace.plot import save_figure
+
+    win = (rows[0]["window_width"], rows[0]["window_height"])
+    fig = Figure(figsize=(13, 9.5))
+    (a1, a2), (a3, a4) = fig.subplots(2, 2)
+    _eta_panel(a1, rows, by_n, fits, mus, "slice", win)
+    _eta_panel(a2, rows, by_n, fits, mus, "window", win)
+    for i, mu in enumerate(mus):
+        c = f"C{i}"
+        mine = [b for b in by_n if b["mu"] == mu]
+        for key, st, lab in (("dim_S_over_Nc_mean", "o-", "dim S / Nc (slice)"),
+                             ("varying_fraction_mean", "^--", "varying fraction (slice)"),
+                             ("window_varying_fraction_mean", "v:", "varying fraction (window)")):
+            ok = [b for b in mine if b[key] is not None]
+            a3.plot([b["n"] for b in ok], [b[key] for b in ok], st, color=c, mfc="none",
+                    ms=5, label=rf"$\mu$ = {mu:g}: {lab}")
+        ok = [b for b in mine if b["percolating_fraction"] is not None]
+        a4.plot([b["n"] for b in ok], [b["percolating_fraction"] for b in ok], "o-", color=c,
+                label=rf"$\mu$ = {mu:g}: fraction of packings percolating")
+        a4.plot([b["n"] for b in ok], [b["largest_domain_fraction_mean"] for b in ok], "^--",
+                color=c, mfc="none", label=rf"$\mu$ = {mu:g}: largest domain / Nc")
+    a3.set(xscale="log", xlabel="n (disks in the box)", ylabel="fraction of contacts",
+           ylim=(-0.03, 1.45), title="dim S per slice contact; contacts whose force varies in S")
+    a4.set(xscale="log", xlabel="n (disks in the box)", ylabel="fraction",
+           ylim=(-0.03, 1.35), title="percolation (a domain spans the slice) and the "
+                                     "largest domain")
+    for ax in (a3, a4):
+        ax.set_yticks(np.linspace(0, 1, 6))     # the room above 1 is the legend's
+    a3.legend(fontsize=6, loc="upper center", ncol=3)
+    a4.legend(fontsize=6, loc="upper center", ncol=3)
+    save_figure(fig, out / "size.png", tight=True)
 
 
 def _fit_text(f) -> str:
     if not np.isfinite(f["slope"]):
-        return f"no fit ({f['points']} packings with eta > 0; needs 3 and two sizes)"
+        return (f"no fit ({f['points']} converged packings with eta > 0 at {f['sizes']} "
+                f"sizes; needs 3 and two sizes)")
     s = (f"d log eta / d log n = {f['slope']:.3f} ± {f['se']:.3f} (95 %: "
          f"{f['ci95'][0]:.3f} to {f['ci95'][1]:.3f}; bootstrap over packings "
          f"{f['bootstrap_ci95'][0]:.3f} to {f['bootstrap_ci95'][1]:.3f}), "
-         f"{f['points']} packings")
+         f"{f['points']} converged packings at {f['sizes']} sizes")
     if f["zeros_left_out"]:
-        s += f", {f['zeros_left_out']} determinate (eta = 0) left out"
+        s += f", {f['zeros_left_out']} determinate (eta = 0) left out of the log fit"
     nd = f.get("needed")
     if nd:
         big = nd["size_with_added_packings"]
@@ -408,64 +561,165 @@ def _fit_text(f) -> str:
     return s
 
 
+def _models_text(m) -> str:
+    if "power" not in m:
+        return f"model comparison: {m['preferred']}"
+    p, s = m["power"], m["saturating"]
+    return (f"model comparison (AIC, least squares on log eta): power law exponent "
+            f"{p['b']:.3f}, saturating eta_inf = {s['eta_inf']:.4g}, c = {s['c']:.3g}"
+            + (" (at its bound)" if s["at_bound"] else "")
+            + f"; AIC(power) - AIC(saturating) = {m['aic_power_minus_saturating']:.2f}: "
+            + {"both fit": f"both fit (difference within ±{AIC_MARGIN:g})",
+               "power": "the power law is favoured",
+               "saturating": "the saturating law is favoured"}[m["preferred"]])
+
+
+def _claim(mu, scope):
+    where = "" if scope == "slice" else " (fixed interior window: bulk)"
+    if mu in GROWS_MUS:
+        return (f"hypothesis: eta grows with n where indeterminacy percolates "
+                f"(mu = {mu:g}){where}")
+    return f"hypothesis: eta is size-independent (intensive) at mu = {mu:g}{where}"
+
+
+VERDICT_OF = {"grows": {"grows": "supported", "intensive": "not supported",
+                        "decreases": "not supported"},
+              "intensive": {"intensive": "supported", "grows": "not supported",
+                            "decreases": "not supported"}}
+
+
 def _verdicts(rows, fits, mus):
     from .report import Verdict
 
-    numbers: dict = {"eta_slopes": {f"{mu:g}": fits[mu] for mu in mus}}
+    numbers: dict = {"eta_slopes": {f"{k}/{scope}/mu{mu:g}": f
+                                    for (k, scope, mu), f in fits.items()},
+                     "runs_per_mu_and_n": {
+                         k: {f"mu{mu:g}": {f"n{n}": counts(rows, mu, n, k)
+                                           for n in sorted({r['n'] for r in rows
+                                                            if r['mu'] == mu})}
+                             for mu in mus} for k in UNIFORM},
+                     "window": {"width_R": rows[0]["window_width"],
+                                "height_R": rows[0]["window_height"]} if rows else None,
+                     "aic_margin": AIC_MARGIN, "flat": FLAT}
     verdicts = []
-    for mu in mus:
-        perc = _group(rows, "percolates", mu)
-        pc = ", ".join(f"{v.mean():.2f} at n = {n}" for n, v in perc.items())
-        call = fits[mu]["call"]
-        if mu <= GROWS_MU:
-            claim = (f"hypothesis: eta grows with n where indeterminacy percolates "
-                     f"(mu = {mu:g})")
-            verdict = {"grows": "reproduced", "intensive": "refuted",
-                       "decreases": "refuted"}.get(call, "not decidable")
-        elif mu == INTENSIVE_MU:
-            claim = f"hypothesis: eta is size-independent (intensive) at mu = {mu:g}"
-            verdict = {"intensive": "reproduced", "grows": "refuted",
-                       "decreases": "refuted"}.get(call, "not decidable")
-        else:
-            continue
-        verdicts.append(Verdict(
-            "size", claim,
-            f"{_fit_text(fits[mu])}; size dependence: {call} (intensive: 95 % interval "
-            f"inside ±{FLAT}); percolating fraction {pc}", verdict))
-    for key in ("dim_S_over_Nc", "density_rho", "percolates"):
-        numbers[f"{key}_per_decade_of_n"] = {f"{mu:g}": _lin_slope(_group(rows, key, mu))
-                                             for mu in mus}
+    for k in UNIFORM:
+        for scope in SCOPES:
+            for mu in mus:
+                if mu not in GROWS_MUS and mu != INTENSIVE_MU:
+                    continue
+                key = _eta_key(scope, k)
+                sizes = {r["n"] for r in rows if r["mu"] == mu and r.get(f"converged_{k}")
+                         and r.get(key) is not None}
+                if len(sizes) < MIN_SIZES:
+                    continue
+                f = fits[(k, scope, mu)]
+                want = "grows" if mu in GROWS_MUS else "intensive"
+                verdict = VERDICT_OF[want].get(f["call"], "not decidable")
+                conv = "; ".join(
+                    f"{n[1:]} disks: {c['converged']} of {c['packings']}"
+                    + (f" ({c['excluded']} excluded, {c['failed']} failed)"
+                       if c["excluded"] or c["failed"] else "")
+                    for n, c in numbers["runs_per_mu_and_n"][k][f"mu{mu:g}"].items()
+                    if (c["converged"] or c["excluded"] or c["failed"]) and (
+                        scope == "slice" or any(r.get("window_contacts") is not None
+                                                for r in rows if f"n{r['n']}" == n)))
+                perc = ", ".join(f"{np.mean([r['percolates'] for r in rows if r['mu'] == mu and r['n'] == n and r.get('percolates') is not None]):.2f}"
+                                 for n in sorted(sizes))
+                verdicts.append(Verdict(
+                    "size", _claim(mu, scope),
+                    f"{_fit_text(f)}; size dependence: {f['call']}; {_models_text(f['models'])}"
+                    f"; converged runs per size: {conv}; percolating fraction at the judged "
+                    f"sizes: {perc}", verdict, sampler=k, kind="hypothesis",
+                    rule=("the 95 % t-interval of the slope of log eta against log n "
+                          "(converged packings with eta > 0) above 0" if want == "grows"
+                          else f"the 95 % t-interval of the slope inside ±{FLAT:g}")
+                    + "; not decidable otherwise (what would decide it is stated)"))
     return numbers, verdicts
 
 
-def _text(rows) -> str:
+def _caps(params) -> str:
+    caps = params.get("caps") or {}
+    cap = " / ".join(f"{v} ({k.replace('_', '-')})" for k, v in caps.items())
+    sec = params.get("max_seconds")
+    return f"{cap} samples" + (f" and {sec:g} s per run" if sec else "")
+
+
+def packings_table(by_n) -> str:
+    """Markdown: per (mu, n) the packings, the converged runs that enter the fits
+    (eta > 0 / determinate) and excluded, and the means with their 95 % intervals."""
+    def eta(b, key):
+        if b.get(f"{key}_mean") is None:
+            return "-"
+        return f"{b[f'{key}_mean']:.4f} [{b[f'{key}_lo']:.4f}, {b[f'{key}_hi']:.4f}]"
+    lines = ["| mu | n | packings | billiard: converged (eta > 0 + eta = 0), excluded, "
+             "failed | hit-and-run: same | dim S / Nc | eta, slice (billiard) | "
+             "eta, window (billiard) | varying fraction, window |", "|" + "---|" * 9]
+    for b in by_n:
+        cell = {k: f"{b[f'eta_{k}_packings']} + {b[f'eta_{k}_zeros']}, "
+                   f"{b[f'{k}_excluded']}, {b[f'{k}_failed']}"
+                if b[f"{k}_converged"] + b[f"{k}_excluded"] + b[f"{k}_failed"] else "not run"
+                for k in UNIFORM}
+        vw = b["window_varying_fraction_mean"]
+        lines.append(f"| {b['mu']:g} | {b['n']} | {b['packings']} | {cell['billiard']} | "
+                     f"{cell['hit_and_run']} | {b['dim_S_over_Nc_mean']:.3f} | "
+                     f"{eta(b, 'eta_billiard')} | {eta(b, 'eta_window_billiard')} | "
+                     + (f"{vw:.3f} |" if vw is not None else "- |"))
+    return "\n".join(lines)
+
+
+def _text(rows, fits, mus) -> str:
     if not rows:
         return "No finished task."
     sizes = sorted({r["n"] for r in rows})
-    mus = sorted({r["mu"] for r in rows})
-    capped = [r for r in rows if r.get("n_hit_and_run") is not None
-              and r["n_hit_and_run"] < max(x.get("n_hit_and_run") or 0 for x in rows)]
-    relax_n = sorted({r["n"] for r in rows if r.get("n_relax")})
     small = min(rows, key=lambda r: r["n"])
+    params = rows[0].get("params") or {}
+    har = sorted({r["n"] for r in rows if r.get("n_hit_and_run") is not None
+                  or r.get("eta_hit_and_run") is not None})
+    per = "; ".join(f"mu = {mu:g}: " + ", ".join(
+        f"{sum(1 for r in rows if r['mu'] == mu and r['n'] == n)} at n = {n}"
+        for n in sizes if any(r['mu'] == mu and r['n'] == n for r in rows)) for mu in mus)
+    ex = {k: sum(c["excluded"] for mu in mus for n in sizes
+                 for c in [counts(rows, mu, n, k)]) for k in UNIFORM}
+    fl = {k: sum(c["failed"] for mu in mus for n in sizes
+                 for c in [counts(rows, mu, n, k)]) for k in UNIFORM}
+    models = "\n".join(
+        f"- {k}, {scope}, mu = {mu:g}: {_models_text(f['models'])}"
+        for (k, scope, mu), f in fits.items() if "power" in f["models"])
     return (
-        f"{len(rows)} packings, n = {', '.join(map(str, sizes))} disks at mu = "
-        f"{', '.join(f'{m:g}' for m in mus)}, one new packing per (n, mu, seed). The box "
-        f"keeps the paper's shape: width and slice height scale with sqrt(n / n0) from the "
-        f"scene's n0 (paper: 42 R and 28 R at n0 = 200; here {small['width']:.3g} R and "
-        f"{small['slice_height']:.3g} R at n = {small['n']}), so the slice holds the same "
-        f"share of the disks. "
-        f"eta is measured with uniform hit-and-run at every size (the relax walk, open "
-        f"squares, only at n <= {relax_n[-1] if relax_n else '-'}: its cost grows much "
-        f"faster with dim S); the slope of log eta against log n is fitted per mu over the "
-        f"packings (t interval; a bootstrap over packings within each size beside it). "
-        f"Hypothesis (the paper leaves it open): eta grows with n at mu <= {GROWS_MU:g}, "
-        f"where indeterminacy percolates, and is intensive at mu = {INTENSIVE_MU:g} "
-        f"(slope interval within ±{FLAT}). Determinate packings (dim S = 0, eta = 0) are "
-        f"left out of the log fit and counted. rho: elementary clusters per slice disk "
-        f"(a greedy circuit basis: a lower bound), computed where dim S <= "
-        f"{rows[0]['params'].get('clusters_max_dim', '?')} only (its LPs grow with dim S; "
-        f"a size where some packing is above that has no rho mean); "
-        f"percolating: a domain touches both the top and the bottom load of the slice.\n\n"
-        f"Time-capped hit-and-run runs (fewer samples than the others): {len(capped)}. "
-        f"A chain capped before it mixes underestimates eta, more so at large dim S: check "
-        f"n_hit_and_run and rhat_hit_and_run in size.csv before reading a slope.")
+        f"{len(rows)} packings ({per}), one new packing per (n, mu, seed), run seed-major. "
+        f"The box keeps the paper's shape: width and slice height scale with sqrt(n / n0) "
+        f"from the scene's n0 (paper: 42 R and 28 R at n0 = 200; here {small['width']:.3g} "
+        f"R and {small['slice_height']:.3g} R at n = {small['n']}), so the slice holds the "
+        f"same share of the disks. n = 5000 is not run (its jam costs ~750 CPU s; 4 seeds x "
+        f"3 mu would be ~2.5 CPU-h of jamming alone).\n\n"
+        f"eta is the uniform measure's: the billiard walk at every size and coordinate "
+        f"hit-and-run (the reference) at n = {', '.join(map(str, har)) or '-'}; each runs 4 "
+        f"chains to ESS 100 on every tracked statistic with split R-hat <= 1.05 (rule 4), "
+        f"capped at {_caps(params)}. "
+        f"Runs that did not converge keep their rows and are excluded from the fits and "
+        f"verdicts (counted per (n, mu) in the verdicts and under `runs_per_mu_and_n`): "
+        f"billiard {ex['billiard']} excluded and {fl['billiard']} failed, hit-and-run "
+        f"{ex['hit_and_run']} excluded and {fl['hit_and_run']} failed. The paper's relax "
+        f"walk is not run here: it does not sample S uniformly (fig3), and the size "
+        f"question is asked of uniform eta.\n\n"
+        f"Bulk and boundary: besides the whole scaled slice, eta and the fraction of "
+        f"contacts whose force varies in S are measured on a fixed interior window of "
+        f"{small['window_width']:g} R x {small['window_height']:g} R (the n0 slice), centred "
+        f"in the slice: the unknown contacts whose contact point lies inside it, the same "
+        f"samples restricted to their columns. The window is defined for n >= n0 only (at "
+        f"n0 it is the slice). dim S / Nc is of the whole slice.\n\n"
+        f"Decision (fixed before the run): per mu, sampler and scope, the least-squares "
+        f"slope of log eta against log n over the converged packings with eta > 0 "
+        f"(determinate packings, eta = 0, are counted and left out), with its 95 % "
+        f"t-interval: 'grows' if it lies above 0, 'intensive' if inside ±{FLAT:g}; a "
+        f"verdict needs converged eta at >= {MIN_SIZES} sizes. Hypothesis (the paper leaves "
+        f"it open): eta grows at mu = {', '.join(f'{m:g}' for m in GROWS_MUS)}, where "
+        f"indeterminacy percolates, and is intensive at mu = {INTENSIVE_MU:g}. Model "
+        f"comparison, per mu: the power law log eta = a + b log n against the saturating "
+        f"law eta = eta_inf (1 - c n^(-1/2)), both two-parameter least squares on log eta, "
+        f"compared by AIC = N ln(RSS / N) + 2k; a difference > {AIC_MARGIN:g} favours the "
+        f"lower, otherwise both fit.\n\n"
+        f"{models or '- no model comparison yet (it needs 4 packings at 3 sizes)'}\n\n"
+        f"rho (elementary clusters per slice disk, a greedy circuit basis: a lower bound) is "
+        f"computed where dim S <= {params.get('clusters_max_dim', '?')} only; percolating: "
+        f"a domain touches both the top and the bottom load of the slice.")

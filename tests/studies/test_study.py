@@ -252,19 +252,32 @@ def test_near_is_half_a_decade_and_intervals_decide():
 @pytest.mark.slow
 def test_size_quick_scaled_boxes_and_indeterminacy_bookkeeping(tmp_path, capsys):
     from forcespace_studies import size
+    from forcespace_studies.report import RULES_VERSION
     out = tmp_path / "size"
     summary = run_quick("size", out, capsys)
-    assert summary["failed"] == 0 and summary["rows"] == 4
+    assert summary["failed"] == 0 and summary["rows"] == 6
     assert (out / "size.png").is_file() and (out / "size.pdf").is_file()
     assert (out / "size.csv").is_file() and (out / "size_by_n.csv").is_file()
-    (verdict,) = json.loads((out / "verdicts.json").read_text())["verdicts"]
-    assert verdict["claim"].startswith("hypothesis: eta grows with n")
-    assert verdict["claim"] in (out / "REPORT.md").read_text()
+    doc = json.loads((out / "verdicts.json").read_text())
+    assert doc["rules_version"] == RULES_VERSION
+    # one verdict per uniform sampler and scope (whole slice, fixed window) at 3 sizes
+    verdicts = doc["verdicts"]
+    assert sorted((v["sampler"], "window" in v["claim"]) for v in verdicts) == [
+        ("billiard", False), ("billiard", True), ("hit_and_run", False),
+        ("hit_and_run", True)]
+    for v in verdicts:
+        assert v["claim"].startswith("hypothesis: eta grows with n")
+        assert v["kind"] == "hypothesis" and v["quick_outcome"] in (
+            "supported", "not supported", "not decidable")
+        assert v["claim"] in (out / "REPORT.md").read_text()
+    assert "relax" not in doc["numbers"]["runs_per_mu_and_n"]
     before = {f.name: f.read_text() for f in (out / "tasks").glob("*.json")}
     done = run_tasks(size.tasks(quick=True), out, progress=False)   # resumes: nothing to run
     assert {f.name: f.read_text() for f in (out / "tasks").glob("*.json")} == before
     rows = {r["task"]: r for r in done}
-    assert sorted(rows) == ["n40_mu0.1_s1", "n40_mu0.1_s2", "n60_mu0.1_s1", "n60_mu0.1_s2"]
+    assert sorted(rows) == [f"n{n}_mu0.1_s{s}" for n in (40, 50, 60) for s in (1, 2)]
+    # seed-major: every size of seed 1 before any of seed 2
+    assert [t.params["seed"] for t in size.tasks(quick=True)] == [1, 1, 1, 2, 2, 2]
     # the box keeps its shape: width and slice height scale by sqrt(n / 40) from the
     # quick scene (20 R, 10 R), so the slice holds the same share of the disks
     share = {}
@@ -281,19 +294,46 @@ def test_size_quick_scaled_boxes_and_indeterminacy_bookkeeping(tmp_path, capsys)
             r["degree_of_indeterminacy"]
         # frictional packings are hypostatic against frictionless isostaticity (z < 4)
         assert 0 <= r["dim_S_over_Nc"] < 0.5
-        # eta vanishes exactly when S is a point, and a spread is smaller than the forces
-        assert (r["eta_hit_and_run"] > 0) == (d > 0) and r["eta_hit_and_run"] < 1
+        # both uniform samplers: eta vanishes exactly when S is a point, a spread is
+        # smaller than the forces, and the two agree (the same measure) within 15 %
+        for k in ("billiard", "hit_and_run"):
+            assert r[f"converged_{k}"]
+            assert (r[f"eta_{k}"] > 0) == (d > 0) and r[f"eta_{k}"] < 1
+            assert (r[f"eta_window_{k}"] > 0) == (r["window_varying_fraction"] > 0)
+        if d:
+            assert r["eta_billiard"] == pytest.approx(r["eta_hit_and_run"], rel=0.15)
+        assert "eta_relax" not in r and "n_relax" not in r
         assert r["n_elementary"] <= d and r["density_rho"] == pytest.approx(
             r["n_elementary"] / n_in)
         assert 0 <= r["largest_domain_fraction"] <= r["varying_fraction"] <= 1
         assert (r["varying_fraction"] > 0) == (d > 0)
-        # the relax walk only up to relax_max_n = 40 disks
+        # the fixed window (the n0 slice, 20 R x 10 R) holds a subset of the slice's
+        # contacts; at n0 = 40 it is the slice itself, with the same eta
+        assert (r["window_width"], r["window_height"]) == (20.0, 10.0)
+        assert 0 < r["window_contacts"] <= nc
         if r["n"] == 40:
-            assert (r["eta_relax"] > 0) == (d > 0)
-        else:
-            assert r["eta_relax"] is None and "n_relax" not in r
+            assert r["window_contacts"] == nc
+            assert r["eta_window_billiard"] == pytest.approx(r["eta_billiard"])
+            assert r["window_varying_fraction"] == pytest.approx(r["varying_fraction"])
     # the larger packings are indeterminate: a fit of eta against n exists
     assert all(rows[f"n60_mu0.1_s{s}"]["dim_S"] > 0 for s in (1, 2))
+
+
+def test_size_model_comparison_tells_a_power_law_from_saturation():
+    from forcespace_studies import size
+    n = np.repeat([100.0, 200.0, 400.0, 800.0, 2000.0], 6)
+    rng = np.random.default_rng(1)
+    noise = np.exp(rng.normal(0, 0.03, n.size))
+    power = size.compare_models(n, 1e-3 * n ** 0.4 * noise)
+    assert power["preferred"] == "power" and power["power"]["b"] == pytest.approx(0.4, abs=0.02)
+    sat = size.compare_models(n, 0.02 * (1 - 5 * n ** -0.5) * noise)
+    assert sat["preferred"] == "saturating"
+    assert sat["saturating"]["eta_inf"] == pytest.approx(0.02, rel=0.05)
+    assert sat["saturating"]["c"] == pytest.approx(5, rel=0.1)
+    # scatter large against the difference: both fit
+    wide = size.compare_models(n, 1e-3 * n ** 0.1 * np.exp(rng.normal(0, 0.5, n.size)))
+    assert wide["preferred"] == "both fit"
+    assert size.compare_models(n[:3], n[:3])["preferred"].startswith("no fit")
 
 
 def test_size_slope_decision_and_what_would_decide_it():
