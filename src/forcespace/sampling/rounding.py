@@ -44,6 +44,19 @@ from .. import config
 from ..errors import InputError, NumericalError
 
 
+def _live_start(H, s, y0, who: str):
+    """(H, s, y, r, keep): the rows that can bind (mask ``keep`` of the given rows) at the
+    start y = y0, with r = s - H y their slacks there; InputError unless y0 is strictly
+    inside {H y <= s}."""
+    H, s = np.asarray(H, float), np.asarray(s, float)
+    y = np.asarray(y0, float).copy()
+    r = s - H @ y
+    if not np.all(r > 0):
+        raise InputError(who, "y0", "must be strictly inside the polytope", got=float(r.min()))
+    keep = _live_rows(H / r[:, None])
+    return H[keep], s[keep], y, r[keep], keep
+
+
 def _live_rows(A):
     """Mask (p,) of the rows of the slack-scaled {A x <= 1} that can bind: rows that are
     zero up to round-off (inequalities whose slack is constant on the hull: contacts
@@ -187,17 +200,8 @@ def john_ellipsoid(H, s, y0, maxiter: int = 300, tol: float = 0.05, callback=Non
     first one's ellipsoid starts at its fixed point (the check round of
     :func:`mve_rounding` then costs a few iterations, not a second solve).
     """
-    H = np.asarray(H, float)
-    s = np.asarray(s, float)
+    H, s, y, r, keep = _live_start(H, s, y0, "john_ellipsoid")
     p, d = H.shape
-    y = np.asarray(y0, float).copy()
-    r = s - H @ y
-    if not np.all(r > 0):
-        raise InputError("john_ellipsoid", "y0", "must be strictly inside the polytope",
-                         got=float(r.min()))
-    keep = _live_rows(H / r[:, None])
-    H, s, r = H[keep], s[keep], r[keep]
-    p = H.shape[0]
     w = np.full(p, d / p)
     if warm is not None and np.shape(warm.get("w")) == keep.shape:
         w = np.maximum(warm["w"][keep], 1e-6 * d / p)
@@ -404,16 +408,8 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     john_excess, converged, cpu_s.
     """
     t0 = time.process_time()
-    H, s = np.asarray(H, float), np.asarray(s, float)
-    d = H.shape[1]
-    y = np.asarray(y0, float).copy()
-    r = s - H @ y
-    if not np.all(r > 0):
-        raise InputError("lewis_rounding", "y0", "must be strictly inside the polytope",
-                         got=float(r.min()))
-    keep = _live_rows(H / r[:, None])
-    H, s = H[keep], s[keep]
-    p = H.shape[0]
+    H, s, y, _, _ = _live_start(H, s, y0, "lewis_rounding")
+    p, d = H.shape
     u = np.full(p, d / p)
     st = {"newton": 0, "updates": 0, "excess": np.inf}
     ok = False
