@@ -46,6 +46,7 @@ from ..kernels import kernel
 from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
 from ..space.force_space import ForceSpace
+from ..space.lp import inner_ball
 from ..streams import chain_states
 from .driver import FrameSampler, Stop, check_target, run_walk
 from .rounding import mve_rounding
@@ -177,24 +178,15 @@ def frame(problem: StaticsProblem, analysis=None):
 
 
 def _frame_centre(H0, s0, problem) -> np.ndarray:
-    """The Chebyshev centre y (d,) of {H0 y <= s0} [F0] (max t: H0 y + t |H0_i| <= s0);
-    NumericalError when S has no interior point in its hull (t <= 0)."""
-    from scipy.optimize import linprog
-
-    norms = np.linalg.norm(H0, axis=1)
-    d = H0.shape[1]
-    c = np.zeros(d + 1)
-    c[-1] = -1.0
-    res = linprog(c, A_ub=np.column_stack([H0, norms]), b_ub=s0,
-                  bounds=[(None, None)] * d + [(None, problem.force_scale)], method="highs")
-    if res.status != 0 or res.x[-1] <= 0:
+    """The Chebyshev centre y (d,) of {H0 y <= s0} [F0] (:func:`space.lp.inner_ball`);
+    NumericalError when S has no interior point in its hull (radius 0 or no optimum)."""
+    ball = inner_ball(H0, s0, problem.force_scale)
+    if ball is None or ball[1] <= 0:
+        radius = float("nan") if ball is None else ball[1] / problem.force_scale
         raise NumericalError(f"S has no interior point in its affine hull to start from "
-                             f"(Chebyshev radius in the frame "
-                             f"{res.x[-1] / problem.force_scale if res.status == 0 else float('nan'):.2g} "
-                             f"<Fn>: S is numerically thinner than its dimension says)")
-    return res.x[:d]
-
-
+                             f"(Chebyshev radius in the frame {radius:.2g} <Fn>: S is "
+                             f"numerically thinner than its dimension says)")
+    return ball[0]
 
 
 def rounding_method(n_rows: int) -> str:

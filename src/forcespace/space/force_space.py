@@ -22,7 +22,7 @@ from ..linalg import affine_hull, null_basis, rank
 from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
 from ..result import Computed
-from .lp import (attempts_for, bounds_list, eq_system, solve_lp, solve_lp_interior,
+from .lp import (attempts_for, bounds_list, eq_system, inner_ball, solve_lp, solve_lp_interior,
                  unit_problem)
 
 
@@ -294,17 +294,10 @@ def _hull_centre(Gf, Eq, rhs, N, lo, hi, r_max):
         k = np.isfinite(bound)
         rows.append(sign * N[k])
         slack.append(sign * (bound[k] - xp[k]))
-    H, s = np.vstack(rows), np.concatenate(slack)
-    norms = np.linalg.norm(H, axis=1)
-    live = norms > config.FLAT_ROW
-    d = N.shape[1]
-    c = np.zeros(d + 1)
-    c[-1] = -1.0
-    res = solve_lp(c, np.column_stack([H[live], norms[live]]), s[live],
-                   bounds=[(None, None)] * d + [(0.0, r_max)], known_feasible=True)
-    if res.status != 0:
+    ball = inner_ball(np.vstack(rows), np.concatenate(slack), r_max)
+    if ball is None:
         return None
-    return xp + N @ res.x[:d], float(res.x[-1])
+    return xp + N @ ball[0], ball[1]
 
 
 def _implicit_kinds(implicit_rows, owner, kind):

@@ -56,6 +56,23 @@ def solve_lp(c, A_ub=None, b_ub=None, A_eq=None, b_eq=None, bounds=None, attempt
     return res
 
 
+def inner_ball(H, s, r_max: float):
+    """The largest ball inside {H y <= s}: (centre y (d,), radius t), the solution of
+    max t s.t. H y + t |H_i| <= s, 0 <= t <= r_max (rows with |H_i| <= config.FLAT_ROW
+    are constant and dropped); None when the LP has no optimum (no point inside)."""
+    H, s = np.asarray(H, float), np.asarray(s, float)
+    norms = np.linalg.norm(H, axis=1)
+    live = norms > config.FLAT_ROW
+    d = H.shape[1]
+    c = np.zeros(d + 1)
+    c[-1] = -1.0
+    res = solve_lp(c, np.column_stack([H[live], norms[live]]), s[live],
+                   bounds=[(None, None)] * d + [(0.0, r_max)], known_feasible=True)
+    if res.status != 0:
+        return None
+    return res.x[:d], float(res.x[-1])
+
+
 def bounds_list(lo, hi):
     return list(zip([None if not np.isfinite(v) else v for v in lo],
                     [None if not np.isfinite(v) else v for v in hi]))
