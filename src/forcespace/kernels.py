@@ -23,20 +23,26 @@ from pathlib import Path
 
 from numba import njit
 
-PACKAGE_DIR = Path(__file__).resolve().parent
+PACKAGE_DIR = Path(__file__).resolve().parent    # the forcespace package, where installed
+
+
+def sources_hash(root=None, only=None) -> str:
+    """SHA-1 (12 hex digits) of the .py files under ``root`` (default: the installed
+    package), each with its path relative to root; ``only(text)`` selects files."""
+    root = Path(root or PACKAGE_DIR)
+    h = hashlib.sha1()
+    for path in sorted(root.rglob("*.py")):
+        text = path.read_bytes()
+        if only is None or only(text):
+            h.update(path.relative_to(root).as_posix().encode() + b"\0" + text)
+    return h.hexdigest()[:12]
 
 
 @functools.lru_cache(maxsize=1)
 def kernel_source_hash(package_dir=None) -> str:
     """SHA-1 (12 hex digits) of the modules under ``package_dir`` (default: this
     package) that declare kernels."""
-    root = Path(package_dir or PACKAGE_DIR)
-    h = hashlib.sha1()
-    for path in sorted(root.rglob("*.py")):
-        text = path.read_bytes()
-        if b"@kernel" in text or b"@njit" in text:
-            h.update(path.relative_to(root).as_posix().encode() + b"\0" + text)
-    return h.hexdigest()[:12]
+    return sources_hash(package_dir, only=lambda text: b"@kernel" in text or b"@njit" in text)
 
 
 def _ours(py_file) -> bool:

@@ -9,7 +9,6 @@ from __future__ import annotations
 import contextlib
 import errno
 import functools
-import hashlib
 import io
 import os
 import secrets
@@ -20,9 +19,9 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputError
+from ..kernels import sources_hash
 
 _WRITE_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO}
-PACKAGE_DIR = Path(__file__).resolve().parents[1]
 
 
 def _new_temp(path: Path) -> str:
@@ -69,10 +68,7 @@ FORMAT_VERSION = 2
 def source_hash() -> str:
     """SHA-1 (12 hex digits) of the installed forcespace sources (every .py file of the
     package): two different codes are never stamped alike, installed or not."""
-    h = hashlib.sha1()
-    for path in sorted(PACKAGE_DIR.rglob("*.py")):
-        h.update(path.relative_to(PACKAGE_DIR).as_posix().encode() + b"\0" + path.read_bytes())
-    return h.hexdigest()[:12]
+    return sources_hash()
 
 
 def code_version() -> str:
