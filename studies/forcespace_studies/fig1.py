@@ -20,7 +20,8 @@ from forcespace.sweep import Task
 
 from . import stats
 from .common import SAMPLERS, determinate, run_samplers, sampler, shared_packing
-from .report import RULES_VERSION, SAMPLERS as LABELS, Verdict, write_csv, write_section
+from .report import (RULES_VERSION, SAMPLERS as LABELS, Verdict, failed_tasks_note, write_csv,
+                     write_section)
 
 MUS = sorted({float(f"{m:.3g}") for m in np.logspace(-4, 1, 15)}
              | {0.02, 0.045, 0.1, 0.22, 0.5})   # 15 log values and 5 more around the peak
@@ -174,9 +175,7 @@ def summarize(results: list[dict], out) -> dict:
     if own:
         _figure(out, own, squares, floor_rows, eta, band, numbers)
     text = _text(own, squares, floor_rows, numbers)
-    if failed:
-        text += (f"\n\n{len(failed)} of {len(results)} tasks failed as a whole (no packing "
-                 f"or no analysis); the reasons are under `failed` in the numbers below.")
+    text += failed_tasks_note(failed, results)
     write_section(out, "fig1", "Fig. 1: force ambiguity and coordination against friction",
                   text, verdicts, numbers, figures=figures, rules_version=RULES_VERSION)
     return {"tasks": len(results), "failed": len(failed), "rows": len(rows),

@@ -112,7 +112,7 @@ def packing_task(scene: str, n_disks: int, slice_height: float, cap: int, mu: fl
     X = {k: e.samples for k, e in ens.items() if e is not None and e.n_samples >= 2}
     for a in SAMPLERS:
         if a in X:
-            row.update(_boundary(prob, an, x0, X[a], a))
+            row.update(_boundary(prob, an, row["jammed_min_slack"], X[a], a))
     for a in SAMPLERS:
         for b in SAMPLERS:
             if a in X and b in X:
@@ -151,10 +151,9 @@ def _sample_sections(prob, an, X, seed) -> list:
             .x0_edge_ratio for k, i in enumerate(pick)]
 
 
-def _boundary(prob, an, x0, X, a) -> dict:
-    """Sampler ``a``'s samples against S's relative boundary, and x0 among them."""
-    free, slack_x0 = free_slacks(prob, an, x0)
-    slack0 = float(slack_x0.min()) if free.size else np.inf
+def _boundary(prob, an, slack0: float, X, a) -> dict:
+    """Sampler ``a``'s samples against S's relative boundary, and x0 (its smallest slack
+    ``slack0`` [<Fn>], from :func:`_sections`) among them."""
     slack = boundary_slack(prob, an, X)
     # the fraction of samples nearer to S's boundary than x0 (about 0: x0 at the edge)
     return {f"on_boundary_fraction_{a}": float((slack < BOUNDARY_TOL).mean()),

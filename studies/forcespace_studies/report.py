@@ -204,6 +204,14 @@ def check_report_file(path, field: str = "-o/--output") -> Path:
     return p
 
 
+def failed_tasks_note(failed: list, results: list) -> str:
+    """The report's sentence on tasks that failed as a whole ("" when none did)."""
+    if not failed:
+        return ""
+    return (f"\n\n{len(failed)} of {len(results)} tasks failed as a whole (no packing or no "
+            f"analysis row); the reasons are under `failed` in the numbers below.")
+
+
 def _shown_verdicts(doc: dict) -> list[dict]:
     """The verdicts as the report shows them: a quick run's as smoke tests, and those of
     a summary written before the rules of this report marked as such."""

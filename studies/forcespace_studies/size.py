@@ -418,7 +418,7 @@ def _by_n_table(rows, mus) -> list[dict]:
 
 def summarize(results: list[dict], out) -> dict:
     """size.csv (one row per packing), size_by_n.csv, size.png/.pdf, verdicts, REPORT.md."""
-    from .report import RULES_VERSION, study_info, write_csv, write_section
+    from .report import RULES_VERSION, failed_tasks_note, study_info, write_csv, write_section
 
     out = Path(out)
     rows = _rows(results)
@@ -456,9 +456,7 @@ def summarize(results: list[dict], out) -> dict:
         text += (f"\n\n{len(results)} of the {total} tasks of the study were done when this "
                  f"summary was written (a run stopped at its deadline; the runner resumes "
                  f"the rest): the packings counted above are those done.")
-    if failed:
-        text += (f"\n\n{len(failed)} of {len(results)} tasks failed as a whole (no packing "
-                 f"or no analysis row); the reasons are under `failed` in the numbers below.")
+    text += failed_tasks_note(failed, results)
     write_section(out, "size", "Size dependence: uniform eta, dim S and the domains against n",
                   text, verdicts, numbers, figures=figures, rules_version=RULES_VERSION)
     return {"tasks": len(results), "failed": len(failed), "rows": len(rows),
