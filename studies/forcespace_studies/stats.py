@@ -127,3 +127,38 @@ def argmax_bootstrap(groups: dict, n_boot: int = N_BOOT, seed: int = 0):
              for _ in range(n_boot)]
     lo, hi = np.quantile(picks, [0.025, 0.975], method="inverted_cdf")
     return float(xs[int(np.argmax(means))]), float(lo), float(hi)
+
+
+def binomial_interval(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
+    """Exact (Clopper-Pearson) ``level`` interval of a proportion, k successes of n
+    independent trials (packings); (nan, nan) for n = 0."""
+    from scipy.stats import binomtest
+
+    if n <= 0:
+        return float("nan"), float("nan")
+    ci = binomtest(int(k), int(n)).proportion_ci(confidence_level=level, method="exact")
+    return float(ci.low), float(ci.high)
+
+
+def majority_call(k: int, n: int, level: float = 0.95) -> str:
+    """Does a statement hold on most packings? "most" when the exact ``level`` interval
+    of the fraction k / n lies above 1/2, "few" when it lies below, else "undecided"."""
+    lo, hi = binomial_interval(k, n, level)
+    if np.isfinite(lo) and lo > 0.5:
+        return "most"
+    if np.isfinite(hi) and hi < 0.5:
+        return "few"
+    return "undecided"
+
+
+def packings_to_decide(k: int, n: int, level: float = 0.95, limit: int = 1000):
+    """The smallest number of packings at which the observed fraction k / n, if it
+    stayed, would decide :func:`majority_call`; None at k / n = 1/2, for n = 0, or
+    beyond ``limit``."""
+    if n <= 0 or 2 * k == n:
+        return None
+    p = k / n
+    for m in range(max(n, 1), limit + 1):
+        if majority_call(int(round(p * m)), m, level) != "undecided":
+            return m
+    return None

@@ -358,3 +358,123 @@ def test_size_slope_decision_and_what_would_decide_it():
     hw = student.ppf(0.975, xx.size - 2) * noisy["resid_sd"] / np.sqrt(
         ((xx - xx.mean()) ** 2).sum())
     assert hw <= need["half_width_needed"] < noisy["ci95"][1] - noisy["slope"]
+
+
+# ---------------------------------------------------------------------------
+# selection: landing labels and the verdicts counted over packings (hand-made results)
+# ---------------------------------------------------------------------------
+def _run(K, distance, unmatched=0, run_converged=True, steps=300_000, lost=1):
+    return {"K": K, "kn": K * 0.1, "run_converged": run_converged, "steps": steps,
+            "distance_to_S": distance, "unmatched": unmatched, "lost": lost,
+            "max_overlap": 1e-7}
+
+
+def test_selection_landing_labels_follow_the_ladder():
+    from forcespace_studies import selection as sel
+    tol = 1e-4
+    assert sel.landing([_run(1e7, 4e-6)], tol)["label"] == "converged"
+    # stopped at the step cap but in S: "landed", with its distance
+    lab = sel.landing([_run(1e7, 1.1e-6, run_converged=False, steps=1_501_000)], tol)
+    assert lab["label"] == "landed" and lab["distance"] == 1.1e-6
+    assert "landed within 1.1e-06 <Fn> of S at K = 1e+07" in sel.label_text(lab)
+    # task JSON of the earlier code: "converged" is the run's own flag
+    old = dict(_run(1e7, 1e-6), converged=False)
+    del old["run_converged"]
+    assert sel.landing([old], tol)["label"] == "landed"
+    # stiffest first: the first run that lands is the one kept
+    ladder = [_run(1e7, 0.05, unmatched=1), _run(3e6, 5e-5, run_converged=False),
+              _run(1e6, 1e-6)]
+    lab = sel.landing(ladder, tol)
+    assert lab["label"] == "landed" and lab["K"] == 3e6
+    # a contact outside the rigid network, or too far from S: not landed, closest run named
+    lab = sel.landing([_run(1e7, 0.057, unmatched=1), _run(3e6, 0.031, unmatched=1),
+                       _run(1e6, 2e-4)], tol)
+    assert lab["label"] == "not landed" and lab["K"] == 1e6 and lab["distance"] == 2e-4
+    assert sel.landing([], tol)["label"] == "not landed"
+    row = {"pym_unmatched": 0, "pym_distance_to_S": 6e-7, "pym_converged": True}
+    assert sel.pymunk_landing(row, tol)["label"] == "converged"
+    assert sel.pymunk_landing(dict(row, pym_unmatched=2), tol)["label"] == "not landed"
+
+
+def _packing_rows(mu, seed, lig, pym_closer=True, kts=(2 / 7, 1.0)):
+    """One packing's rows; lig: per kt/kn (runs, closer to the selection or not)."""
+    rows = []
+    for kt, (runs, near) in zip(kts, lig):
+        r = {"mu": mu, "seed": seed, "kt_ratio": kt, "lig_runs": runs, "centre_radius": 0.02,
+             "pym_unmatched": 0, "pym_distance_to_S": 1e-6, "pym_converged": True,
+             "d_pym_sel": 0.05 if pym_closer else 0.3, "d_pym_cd": 0.2, "d_pym_centre": 0.25,
+             "d_sel_cd": 0.2, "d_cd_centre": 0.1}
+        if any(q["unmatched"] == 0 and q["distance_to_S"] < 1e-4 for q in runs):
+            r.update(d_lig_sel=0.05 if near else 0.25, d_lig_cd=0.2, d_lig_centre=0.22)
+        rows.append(r)
+    return rows
+
+
+def test_selection_verdicts_count_packings_not_rows(tmp_path):
+    from forcespace_studies import selection as sel
+    from forcespace_studies.report import RULES_VERSION
+    ok, cap, bad = _run(1e7, 4e-6), _run(1e7, 2e-6, run_converged=False), \
+        _run(1e7, 0.03, unmatched=1)
+    params = {"landed_tol": 1e-4, "scene": "paper", "n_disks": 200, "K": [1e7],
+              "pymunk": [100, 0.003], "max_steps": 1_500_000}
+
+    def task(mu, seed, lig, **kw):
+        return {"task": f"mu{mu:g}_s{seed}", "ok": True, "params": dict(params, mu=mu),
+                "rows": _packing_rows(mu, seed, lig, **kw)}
+    # mu = 0.1: 8 packings hold at both kt/kn (one of them with a run at the step cap),
+    # one holds at kt/kn = 2/7 only (it counts against: "every kt/kn"), one holds but
+    # did not land at kt/kn = 1 (left out): 8 of 9 -> exact interval (0.52, 1.00)
+    res = [task(0.1, s, [([ok], True), ([cap if s == 1 else ok], True)]) for s in range(1, 9)]
+    res.append(task(0.1, 9, [([ok], True), ([ok], False)]))
+    res.append(task(0.1, 10, [([ok], True), ([bad, bad], True)], pym_closer=False))
+    # mu = 0.5: 1 of 10 packings -> interval below 1/2; one task failed as a whole
+    res += [task(0.5, s, [([ok], s == 1), ([ok], s == 1)]) for s in range(1, 11)]
+    res.append({"task": "mu0.5_s11", "ok": False, "params": dict(params, mu=0.5),
+                "error": "LiggghtsError: boom"})
+    # mu = 0: labels only, no verdict
+    res.append(task(0.0, 1, [([ok], True)], kts=(2 / 7,)))
+    summary = sel.summarize(res, tmp_path)
+    assert summary["failed"] == 1 and summary["rows"] == 41
+    doc = json.loads((tmp_path / "verdicts.json").read_text())
+    assert doc["rules_version"] == RULES_VERSION
+    h = doc["numbers"]["hypothesis"]
+    lig1 = h["LIGGGHTS/mu0.1"]
+    assert (lig1["packings"], lig1["entered"], lig1["holds"]) == (10, 9, 8)
+    assert lig1["entered_all_converged"] == 8 and lig1["entered_with_capped_runs"] == 1
+    assert lig1["capped_max_distance"] == 2e-6 and lig1["not_landed_seeds"] == [10]
+    assert lig1["per_kt"] == {"0.286": {"holds": 9, "packings": 9},
+                              "1": {"holds": 8, "packings": 9}}
+    assert lig1["ci95"][0] == pytest.approx(0.5175, abs=1e-3) and lig1["verdict"] == "supported"
+    # pymunk has no ladder: all 10 packings enter, 9 hold -> supported
+    assert (h["pymunk/mu0.1"]["entered"], h["pymunk/mu0.1"]["holds"]) == (10, 9)
+    lig5 = h["LIGGGHTS/mu0.5"]
+    assert (lig5["entered"], lig5["holds"], lig5["verdict"]) == (10, 1, "not supported")
+    assert "LIGGGHTS/mu0" not in h                     # S is a point: no verdict at mu = 0
+    v = {(x["claim"].split(" lands")[0], x["claim"].split("mu = ")[1][:3]): x
+         for x in doc["verdicts"]}
+    assert len(v) == 4 and {x["kind"] for x in doc["verdicts"]} == {"hypothesis"}
+    assert v[("LIGGGHTS", "0.1")]["verdict"] == "supported"
+    assert "8 of 9 packings" in v[("LIGGGHTS", "0.1")]["ours"]
+    assert "Clopper-Pearson" in v[("LIGGGHTS", "0.1")]["rule"]
+    assert doc["numbers"]["failed_per_mu"] == {"mu0.5": ["mu0.5_s11: LiggghtsError: boom"]}
+    assert doc["numbers"]["labels"]["mu0.1"]["lig"] == {"converged": 18, "landed": 1,
+                                                       "not landed": 1}
+    text = doc["text"]
+    assert "landed within 2e-06 <Fn> of S at K = 1e+07 (stopped at the step cap" in text
+    assert "mu = 0.1, seed 10, kt/kn = 1: not landed" in text
+    assert "1 of 22 tasks failed" in text
+    # too few packings: not decidable, and how many would decide it
+    rows = [dict(r, landed_tol=1e-4) for s in (1, 2, 3)
+            for r in _packing_rows(0.1, s, [([ok], True), ([ok], True)])]
+    few = sel.judge(rows, "lig", 0.1)
+    assert (few["holds"], few["entered"], few["verdict"]) == (3, 3, "not decidable")
+    assert few["needed"] == 6
+
+
+def test_selection_binomial_helpers():
+    from forcespace_studies.stats import binomial_interval, majority_call, packings_to_decide
+    lo, hi = binomial_interval(9, 10)
+    assert lo == pytest.approx(0.5550, abs=1e-4) and hi == pytest.approx(0.99747, abs=1e-4)
+    assert majority_call(9, 10) == "most" and majority_call(8, 10) == "undecided"
+    assert majority_call(0, 10) == "few" and majority_call(5, 10) == "undecided"
+    assert packings_to_decide(5, 10) is None and packings_to_decide(3, 3) == 6
