@@ -2,15 +2,21 @@
 
 Tasks: one per fig1 packing (mu, seed), read from the sibling ``fig1`` study
 directory when it has it (jammed here otherwise). Per packing: the slice's S,
-its decomposition into elementary clusters (:mod:`forcespace.clusters`): their
-number and sizes, the density rho (elementary clusters per interior disk), the
-largest domain's share of the slice's contacts, whether a domain percolates
-(touches both the top and the bottom load). The paper's test of the same
-clusters under other boundary loads: the loads are replaced by those of
-another admissible network of the whole packing (the jammed network of the
-full packing plus uniform kicks of +-<Fn>/2, projected exactly onto the full
-packing's S), and the decomposition is redone; we count the elementary clusters
-found again (same contact set).
+its decomposition into domains of indeterminacy and elementary clusters
+(:mod:`forcespace.space.structure`): their number and sizes, the density rho
+(elementary clusters per interior disk), the largest domain's share of the slice's
+contacts, whether a domain percolates (its disks touch both the top and the bottom
+load of the slice). A determinate S (dim S = 0) keeps its row: no domain, rho = 0.
+
+The paper's test of the same clusters under other boundary loads: the slice's loads
+are replaced by those of another admissible network of the whole packing, a generic
+one (:func:`other_loads`: inside the full packing's S, not on its boundary), S of the
+slice is analysed again and decomposed again. Each domain is stored with its size,
+dimension, whether it percolates, whether it is found again (the same contact set is a
+domain under the other loads) and its best Jaccard overlap with a domain under the
+other loads, so the summary decides from the task files. Verdicts follow the report's rules
+(:data:`forcespace_studies.report.RULES`); the operational readings are the
+constants below, fixed before the runs.
 """
 from __future__ import annotations
 
@@ -20,14 +26,22 @@ from pathlib import Path
 import numpy as np
 
 import forcespace as fs
+from forcespace.errors import ForcespaceError, NumericalError
 from forcespace.space.projection import distance_to_S
 from forcespace.space.structure import decompose, extreme_pair
 from forcespace.sweep import Task
 
-from . import fig1
+from . import fig1, stats
 from .common import shared_packing
+from .report import RULES_VERSION, Verdict, failed_tasks_note, write_csv, write_section
 
 REUSE = ("fig1",)
+SMALL_MU = 0.2        # "small mu": mu <= this
+LARGE_MU = 0.5        # "large mu": mu >= this
+SPANS = 0.5           # spans the system: the largest domain holds >= half the slice's contacts
+LOCAL = 0.2           # small / localised: a domain (cluster) holds <= a fifth of them
+ELEMENTARY_SHARE = 0.5  # "sits in elementary clusters": >= half of dim S in them
+FOUND_AGAIN = 0.8     # "the same clusters appear": >= 80 % of the domains found again
 
 
 def config(quick: bool) -> dict:
@@ -42,41 +56,73 @@ def tasks(quick: bool = False) -> list[Task]:
 
 
 def other_loads(packing, seed: int):
-    """The packing with the forces of another admissible network of its full S."""
+    """The packing with the forces of another admissible network of its full S, in the
+    relative interior of S: the midpoint of (a) the full packing's jammed network kicked by
+    uniform +-<Fn>/2 on its free force components and projected exactly onto S (seeded)
+    and (b) S's Chebyshev centre. The projection alone lands on the boundary of S, where
+    contacts are held at zero force or at the Coulomb limit; under such loads the slice's
+    S is a lower-dimensional face (dim S fell by 1 on 2 of 9 paper packings at mu <= 0.37,
+    to 0 on quick ones) and its domains change for that reason alone. Other loads in the
+    paper's sense are generic ones."""
     full = fs.full_problem(packing)
+    an = fs.ForceSpace().compute(full)
+    if not (an.success and an.feasible and an.bounded):
+        raise NumericalError("the full packing's S: " + (an.message if not an.success else
+                                                          "empty or unbounded"))
     rng = np.random.default_rng(seed)
     kick = rng.uniform(-0.5, 0.5, full.n_columns) * full.force_scale
     kick[full.fixed_columns()] = 0.0
-    x = distance_to_S(full, full.x_jammed + kick).nearest
+    x = 0.5 * (distance_to_S(full, full.x_jammed + kick).nearest + an.centre)
     return packing.with_forces(*full.to_packing_forces(x))
 
 
-def cluster_sets(problem, dec) -> set:
-    """Elementary clusters as frozensets of packing contact indices (empty without dec)."""
-    return {frozenset(problem.contacts[c.contacts].tolist()) for c in
-            (dec.clusters if dec else []) if c.elementary}
+def domain_sets(problem, dec) -> list:
+    """Domains of indeterminacy as frozensets of packing contact indices, in the
+    decomposition's order. Unlike a circuit basis (one of many), the domains are unique:
+    the fair comparison."""
+    return [frozenset(problem.contacts[g.contacts].tolist()) for g in
+            (dec.domains if dec else [])]
 
 
-def domain_sets(problem, dec) -> set:
-    """Domains of indeterminacy as frozensets of packing contact indices. Unlike a
-    circuit basis (one of many), the domains are unique: the fair comparison."""
-    return {frozenset(problem.contacts[g.contacts].tolist()) for g in
-            (dec.domains if dec else [])}
+def match_domains(before: list, after: list) -> list[dict]:
+    """For each contact set of ``before``: found_again (the same set is in ``after``),
+    jaccard (the largest |A & B| / |A | B| over ``after``; 0 when it is empty) and
+    match (the index in ``after`` of that best set, None when empty)."""
+    out = []
+    for a in before:
+        best, j = 0.0, None
+        for k, b in enumerate(after):
+            jac = len(a & b) / max(len(a | b), 1)
+            if jac > best:
+                best, j = jac, k
+        out.append({"found_again": a in set(after), "jaccard": best, "match": j})
+    return out
+
+
+DETERMINATE = dict(n_domains=0, domain_dims=[], n_clusters=0, n_elementary=0,
+                   elementary_sizes_contacts=[], elementary_sizes_disks=[], density_rho=0.0,
+                   largest_domain_contacts=0, percolating_domains=0,
+                   largest_domain_fraction=0.0, varying_fraction=0.0, percolates=False,
+                   domains=[])
 
 
 def packing_task(scene: str, n_disks: int, slice_height: float, mu: float, seed: int,
                  workdir) -> dict:
+    """One packing's analysis row (rule 5: kept when a later step fails; the failure is
+    named in error_analysis or error_other_loads)."""
     wd = Path(workdir)
     p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks, REUSE)
     prob = fs.slice_problem(p, slice_height)
     t0 = time.perf_counter()
     an = fs.ForceSpace().compute(prob)
     row = {"mu": mu, "seed": seed, "z": p.coordination(), "slice_disks": prob.n_interior,
-           "slice_contacts": prob.n_contacts, "feasible": an.feasible, "bounded": an.bounded,
-           "dim_S": an.dim, "t_jam_s": t_jam}
-    if not an.feasible or not an.dim:
-        row.update(n_elementary=0, density_rho=0.0, largest_domain_fraction=0.0,
-                   percolates=False, t_clusters_s=time.perf_counter() - t0)
+           "slice_contacts": prob.n_contacts, "analysis_ok": an.success, "t_jam_s": t_jam}
+    if not (an.success and an.feasible and an.bounded):
+        row["error_analysis"] = an.message if not an.success else "S empty or unbounded"
+        return row
+    row.update(feasible=True, bounded=True, dim_S=an.dim)
+    if not an.dim:          # determinate: no domain, no cluster (rho = 0 exactly)
+        row.update(DETERMINATE, t_clusters_s=time.perf_counter() - t0)
         return row
     dec = decompose(prob, an, p)
     s = dec.summary()
@@ -84,122 +130,369 @@ def packing_task(scene: str, n_disks: int, slice_height: float, mu: float, seed:
     row["largest_domain_fraction"] = s["largest_domain_contacts"] / max(prob.n_contacts, 1)
     row["percolates"] = bool(s["percolating_domains"])
     row["varying_fraction"] = sum(g.contacts.size for g in dec.domains) / prob.n_contacts
+    row["domains"] = [{"contacts": int(g.contacts.size), "disks": int(g.disks.size),
+                       "dim": int(g.dim), "percolates": bool(perc)}
+                      for g, perc in zip(dec.domains, dec.percolates)]
     row["t_clusters_s"] = time.perf_counter() - t0
-    # the same clusters under other boundary loads?
     t0 = time.perf_counter()
-    prob2 = fs.slice_problem(other_loads(p, seed), slice_height)
-    an2 = fs.ForceSpace().compute(prob2)
-    dec2 = decompose(prob2, an2, p) if an2.feasible and an2.dim else None
-    row["other_loads"] = {
-        "dim_S": an2.dim, "n_domains": len(dec.domains),
-        "same_domains": len(domain_sets(prob, dec) & domain_sets(prob2, dec2)),
-        "n_elementary": dec.n_elementary,
-        "same_clusters": len(cluster_sets(prob, dec) & cluster_sets(prob2, dec2))}
+    try:
+        row["other_loads"] = _other_loads(p, prob, an, dec, seed, slice_height, row["domains"])
+    except ForcespaceError as exc:      # rule 5: the analysis row stays
+        row["error_other_loads"] = f"{type(exc).__name__}: {exc}"
     row["t_other_loads_s"] = time.perf_counter() - t0
     return row
 
 
+def _other_loads(p, prob, an, dec, seed, slice_height, domains) -> dict:
+    """S of the slice under the loads of another admissible network; marks each of
+    ``domains`` (dicts, in dec's order) found again or not, with its best overlap."""
+    prob2 = fs.slice_problem(other_loads(p, seed), slice_height)
+    an2 = fs.ForceSpace().compute(prob2)
+    if not (an2.success and an2.feasible):
+        raise ForcespaceError("the slice under the other loads: " + (
+            an2.message if not an2.success else "S empty"))
+    dec2 = decompose(prob2, an2, p) if an2.dim else None
+    after = domain_sets(prob2, dec2)
+    for d, m in zip(domains, match_domains(domain_sets(prob, dec), after)):
+        d.update(found_again=m["found_again"], jaccard=m["jaccard"],
+                 dim_again=None if m["match"] is None else int(dec2.domains[m["match"]].dim))
+    return {"dim_S": int(an2.dim), "dim_S_change": int(an2.dim) - int(an.dim),
+            "n_domains": len(after)}
+
+
+ROW_KEYS = ["task", "mu", "seed", "z", "slice_disks", "slice_contacts", "dim_S", "n_domains",
+            "n_elementary", "density_rho", "largest_domain_fraction", "varying_fraction",
+            "percolates", "elementary_sizes_contacts", "elementary_sizes_disks",
+            "other_loads_dim_S", "dim_S_change", "localised_domains",
+            "localised_found_again", "percolating_domains", "percolating_found_again",
+            "percolating_jaccard", "error_analysis", "error_other_loads", "t_clusters_s",
+            "t_other_loads_s"]
+DOMAIN_KEYS = ["task", "mu", "seed", "domain", "contacts", "disks", "dim", "percolates",
+               "found_again", "jaccard", "dim_again", "dim_S", "other_loads_dim_S"]
+
+
+def _table_row(r) -> dict:
+    ol = r.get("other_loads") or {}
+    doms = [d for d in r.get("domains") or [] if "found_again" in d]
+    loc = [d for d in doms if not d["percolates"]]
+    perc = [d for d in doms if d["percolates"]]
+    return dict(r, other_loads_dim_S=ol.get("dim_S"), dim_S_change=ol.get("dim_S_change"),
+                localised_domains=len(loc) if ol else None,
+                localised_found_again=sum(d["found_again"] for d in loc) if ol else None,
+                percolating_found_again=sum(d["found_again"] for d in perc) if ol else None,
+                percolating_jaccard=min((d["jaccard"] for d in perc), default=None))
+
+
 def summarize(results: list[dict], out) -> dict:
-    """fig2.csv, fig2_clusters.png (rho, domain fraction, percolation vs mu),
-    fig2.png (the difference networks at mu = 0.1 and 0.5), verdicts, REPORT.md."""
+    """fig2.csv (one row per packing), fig2_domains.csv (one per domain), fig2_clusters.png
+    (rho, localisation, domains found again, against mu), fig2.png (the difference
+    networks at mu = 0.1 and 0.5), verdicts, REPORT.md."""
+    out = Path(out)
+    rows = [dict(r, task=r.get("task")) for r in results if r.get("ok")]
+    failed = [r for r in results if not r.get("ok")]
+    write_csv(out / "fig2.csv", [_table_row(r) for r in rows], ROW_KEYS)
+    write_csv(out / "fig2_domains.csv",
+              [dict(d, task=r["task"], mu=r["mu"], seed=r["seed"], domain=i,
+                    dim_S=r.get("dim_S"), other_loads_dim_S=(r.get("other_loads") or {})
+                    .get("dim_S")) for r in rows for i, d in enumerate(r.get("domains") or [])],
+              DOMAIN_KEYS)
+    numbers, verdicts = judge(results)
+    figures = []
+    if numbers["by_mu"]:
+        _figure(out, numbers["by_mu"])
+        figures.append("fig2_clusters.png")
+    if _draw_examples(rows, out):
+        figures.insert(0, "fig2.png")
+    text = _text(rows, numbers) + failed_tasks_note(failed, results)
+    write_section(out, "fig2", "Fig. 2: elementary clusters and the localisation of "
+                  "indeterminacy", text, verdicts, numbers, figures,
+                  rules_version=RULES_VERSION)
+    return {"tasks": len(results), "failed": len(failed), "figures": figures,
+            "verdicts": [v.verdict for v in verdicts]}
+
+
+def _mu(r) -> str:
+    mu = r.get("mu", (r.get("params") or {}).get("mu"))
+    return "?" if mu is None else f"{mu:g}"
+
+
+def judge(results: list[dict]) -> tuple[dict, list[Verdict]]:
+    """The numbers and verdicts of the study from its task results (a pure function of
+    them: the report's rules, readings fixed by the module's constants)."""
+    rows = [r for r in results if r.get("ok")]
+    failed = [r for r in results if not r.get("ok")]
+    done = [r for r in rows if r.get("dim_S") is not None]     # analysed
+    ind = [r for r in done if r["dim_S"]]                       # indeterminate
+    trouble: dict = {}
+    for r in failed:
+        trouble.setdefault(_mu(r), []).append(f"{r.get('task')}: task failed: {r.get('error')}")
+    for r in rows:
+        for key in ("error_analysis", "error_other_loads"):
+            if r.get(key):
+                trouble.setdefault(_mu(r), []).append(f"{r.get('task')}: {key}: {r[key]}")
+    numbers: dict = {"tasks": len(results), "tasks_failed": len(failed),
+                     "failed": [f"{r.get('task')}: {r.get('error')}" for r in failed],
+                     "failures_by_mu": dict(sorted(trouble.items(), key=lambda kv: float(
+                         kv[0]) if kv[0] != "?" else np.inf)),
+                     "packings_analysed": len(done), "packings_determinate": len(done) - len(ind),
+                     "by_mu": _by_mu(done)}
+    verdicts = [_localisation(ind, numbers), _elementary(ind, numbers)]
+    verdicts += _same_domains(ind, numbers)
+    return numbers, [v for v in verdicts if v is not None]
+
+
+def _by_mu(done) -> list[dict]:
+    out = []
+    for m in sorted({r["mu"] for r in done}):
+        here = [r for r in done if r["mu"] == m]
+        ind = [r for r in here if r["dim_S"]]
+        doms = [d for r in ind for d in r.get("domains") or [] if "found_again" in d]
+        loc = [d for d in doms if not d["percolates"]]
+        perc = [d for d in doms if d["percolates"]]
+        out.append({
+            "mu": m, "packings": len(here), "determinate": len(here) - len(ind),
+            "rho_mean": float(np.mean([r["density_rho"] for r in here])),
+            "rho_sd": float(np.std([r["density_rho"] for r in here])),
+            "largest_domain_fraction": float(np.mean([r["largest_domain_fraction"]
+                                                      for r in ind])) if ind else None,
+            "varying_fraction": float(np.mean([r["varying_fraction"] for r in ind]))
+            if ind else None,
+            "percolating": float(np.mean([r["percolates"] for r in ind])) if ind else None,
+            "localised_domains": len(loc),
+            "localised_found_again": sum(d["found_again"] for d in loc),
+            "percolating_domains": len(perc),
+            "percolating_found_again": sum(d["found_again"] for d in perc),
+            "percolating_jaccard": float(np.mean([d["jaccard"] for d in perc])) if perc
+            else None})
+    return out
+
+
+def _interval(b) -> str:
+    return f"{b[0]:.2f} (95 %: {b[1]:.2f}-{b[2]:.2f})"
+
+
+def _localisation(ind, numbers) -> Verdict:
+    claim = ("Indeterminacy spans the system at small mu and localises into small separated "
+             "domains at large mu")
+    rule = (f"packings with dim S > 0; the mean share of the slice's contacts in the largest "
+            f"domain, 95 % bootstrap interval over packings: inside [{SPANS:g}, 1] at mu <= "
+            f"{SMALL_MU:g} (spans) and inside [0, {LOCAL:g}] at mu >= {LARGE_MU:g} "
+            f"(localised); refuted if either interval lies outside")
+    groups = {"small": [r["largest_domain_fraction"] for r in ind if r["mu"] <= SMALL_MU],
+              "large": [r["largest_domain_fraction"] for r in ind if r["mu"] >= LARGE_MU]}
+    perc = {"small": [float(r["percolates"]) for r in ind if r["mu"] <= SMALL_MU],
+            "large": [float(r["percolates"]) for r in ind if r["mu"] >= LARGE_MU]}
+    b, bp = stats.bootstrap_mean(groups), stats.bootstrap_mean(perc)
+    numbers["largest_domain_fraction"] = {k: b.get(k) for k in groups}
+    numbers["percolating_fraction"] = {k: bp.get(k) for k in perc}
+    if not (groups["small"] and groups["large"]):
+        return Verdict("fig2", claim, f"packings with dim S > 0: {len(groups['small'])} at "
+                       f"mu <= {SMALL_MU:g}, {len(groups['large'])} at mu >= {LARGE_MU:g}; "
+                       "both are needed", "not decidable", rule=rule)
+    verdict = stats.all_of(stats.interval_verdict(b["small"][1], b["small"][2], (SPANS, 1.0)),
+                           stats.interval_verdict(b["large"][1], b["large"][2], (0.0, LOCAL)))
+    return Verdict(
+        "fig2", claim,
+        f"largest domain's share of the slice's contacts: {_interval(b['small'])} at mu <= "
+        f"{SMALL_MU:g} ({len(groups['small'])} packings), {_interval(b['large'])} at mu >= "
+        f"{LARGE_MU:g} ({len(groups['large'])} packings); share of packings with a "
+        f"percolating domain {_interval(bp['small'])} vs {_interval(bp['large'])}",
+        verdict, rule=rule)
+
+
+def _elementary(ind, numbers) -> Verdict:
+    claim = ("At large mu the indeterminacy sits in small elementary clusters (one degree of "
+             "freedom, irreducible; smallest 4 disks and 5 contacts)")
+    rule = (f"packings with dim S > 0 at mu >= {LARGE_MU:g}; 95 % bootstrap intervals over "
+            f"packings: the mean share of dim S in elementary clusters (n_elementary / dim S) "
+            f"inside [{ELEMENTARY_SHARE:g}, 1], and the mean share of the slice's contacts in "
+            f"the packing's largest elementary cluster inside [0, {LOCAL:g}]; the smallest "
+            "cluster found is reported, not judged (4 disks, 5 contacts is a lower bound by "
+            "counting; a finite sample need not reach it)")
+    large = [r for r in ind if r["mu"] >= LARGE_MU]
+    if not large:
+        return Verdict("fig2", claim, f"no packing with dim S > 0 at mu >= {LARGE_MU:g}",
+                       "not decidable", rule=rule)
+    share = [r["n_elementary"] / r["dim_S"] for r in large]
+    size = [max(r["elementary_sizes_contacts"], default=0) / max(r["slice_contacts"], 1)
+            for r in large]
+    b = stats.bootstrap_mean({"share": share, "size": size})
+    sizes = [s for r in large for s in r["elementary_sizes_contacts"]]
+    disks = [s for r in large for s in r.get("elementary_sizes_disks") or []]
+    numbers["elementary_large_mu"] = {
+        "packings": len(large), "share_of_dim_S": b["share"], "largest_cluster_share": b["size"],
+        "clusters": len(sizes), "contacts_min_median_max": [min(sizes), float(np.median(sizes)),
+                                                            max(sizes)] if sizes else None,
+        "disks_min": min(disks) if disks else None}
+    verdict = stats.all_of(
+        stats.interval_verdict(b["share"][1], b["share"][2], (ELEMENTARY_SHARE, 1.0)),
+        stats.interval_verdict(b["size"][1], b["size"][2], (0.0, LOCAL)))
+    found = (f"{len(sizes)} elementary clusters of {min(sizes)}-{max(sizes)} contacts (median "
+             f"{np.median(sizes):.0f}; smallest on {min(disks) if disks else '?'} disks)"
+             if sizes else "no elementary cluster")
+    return Verdict(
+        "fig2", claim,
+        f"{len(large)} packings with dim S > 0 at mu >= {LARGE_MU:g}: share of dim S in "
+        f"elementary clusters {_interval(b['share'])}; largest elementary cluster's share of "
+        f"the slice's contacts {_interval(b['size'])}; {found}", verdict, rule=rule)
+
+
+def _found(ind, percolating: bool) -> dict:
+    """Domains (localised or percolating) pooled over the packings whose other-loads step
+    ran: counts, the pooled fraction found again with its bootstrap interval over
+    packings, the best-match overlaps and the change of dim S."""
+    hits, totals, jac, change, mus, missed, share = [], [], [], [], [], [], []
+    for r in ind:
+        if not r.get("other_loads"):
+            continue
+        doms = [d for d in r.get("domains") or [] if d["percolates"] == percolating
+                and "found_again" in d]
+        if not doms:
+            continue
+        hits.append(sum(d["found_again"] for d in doms))
+        totals.append(len(doms))
+        jac += [d["jaccard"] for d in doms]
+        share += [d["contacts"] / max(r.get("slice_contacts") or 1, 1) for d in doms]
+        change.append(r["other_loads"]["dim_S_change"])
+        missed += [d["jaccard"] for d in doms if not d["found_again"]]
+        mus += [r["mu"]] * (len(doms) - hits[-1])
+    frac = stats.pooled_fraction(hits, totals)
+    return {"packings": len(totals), "domains": int(sum(totals)), "found_again": int(sum(hits)),
+            "fraction": frac, "jaccard_mean": float(np.mean(jac)) if jac else None,
+            "jaccard_min": float(np.min(jac)) if jac else None,
+            "missed_jaccard_mean": float(np.mean(missed)) if missed else None,
+            "missed_at_mu": sorted({float(m) for m in mus}),
+            "largest_share_of_slice": float(max(share)) if share else None,
+            "dim_S_change": {"mean": float(np.mean(change)), "min": int(min(change)),
+                             "max": int(max(change))} if change else None}
+
+
+def _same_domains(ind, numbers) -> list[Verdict]:
+    rule = (f"a domain counts as found again when the same contact set is a domain of S "
+            f"under the other loads; the fraction found again, pooled over packings (95 % "
+            f"bootstrap interval, packings resampled), inside [{FOUND_AGAIN:g}, 1]; refuted "
+            f"if the interval lies below {FOUND_AGAIN:g}")
+    loc, perc = _found(ind, False), _found(ind, True)
+    numbers["other_loads"] = {"localised": loc, "percolating": perc}
+    out = []
+    claim = ("The same clusters appear under other boundary loads (a property of the contact "
+             "network): the localised domains, elementary clusters as the paper shows them")
+    rule_loc = "localised (non-percolating) domains of packings with dim S > 0; " + rule
+    if not loc["domains"]:
+        out.append(Verdict("fig2", claim, "no localised domain with the other-loads step "
+                           "done", "not decidable", rule=rule_loc))
+    else:
+        f = loc["fraction"]
+        out.append(Verdict(
+            "fig2", claim,
+            f"{loc['found_again']} of {loc['domains']} localised domains found again "
+            f"({loc['packings']} packings): {_interval(f)}; best-match Jaccard of the "
+            f"contact sets: mean {loc['jaccard_mean']:.3f}, min {loc['jaccard_min']:.3f}; "
+            f"the largest holds {100 * loc['largest_share_of_slice']:.0f} % of its slice's "
+            "contacts", stats.interval_verdict(f[1], f[2], (FOUND_AGAIN, 1.0)), rule=rule_loc))
+    if perc["domains"]:
+        f, ch = perc["fraction"], perc["dim_S_change"]
+        out.append(Verdict(
+            "fig2", "The percolating domain is found again exactly (same contact set) under "
+                    "other boundary loads",
+            f"{perc['found_again']} of {perc['domains']} percolating domains found again "
+            f"({perc['packings']} packings): {_interval(f)}"
+            + (f", misses at mu = {', '.join(f'{m:g}' for m in perc['missed_at_mu'])}"
+               if perc["missed_at_mu"] else "")
+            + f"; best-match Jaccard of the contact sets: mean {perc['jaccard_mean']:.3f}, "
+              f"min {perc['jaccard_min']:.3f}; dim S under the other loads minus dim S: mean "
+              f"{ch['mean']:+.2f}, range {ch['min']:+d} to {ch['max']:+d}",
+            stats.interval_verdict(f[1], f[2], (FOUND_AGAIN, 1.0)), kind="ours",
+            rule="percolating domains of packings with dim S > 0; " + rule
+                 + "; the overlap and the change of dim S are reported beside"))
+    return out
+
+
+def _figure(out, by_mu) -> None:
     from matplotlib.figure import Figure
 
     from forcespace.plot import save_figure
-    from .report import Verdict, write_csv, write_section
 
-    out = Path(out)
-    rows = [r for r in results if r.get("ok")]
-    failed = [r for r in results if not r.get("ok")]
-    keys = ["mu", "seed", "z", "slice_disks", "slice_contacts", "dim_S", "n_domains",
-            "n_elementary", "density_rho", "largest_domain_fraction", "varying_fraction",
-            "percolates", "elementary_sizes_contacts", "t_clusters_s"]
-    write_csv(out / "fig2.csv",
-              [dict(r, other_loads_same_domains=(r.get("other_loads") or {}).get("same_domains"),
-                    other_loads_same_clusters=(r.get("other_loads") or {}).get("same_clusters"))
-               for r in rows], keys + ["other_loads_same_domains", "other_loads_same_clusters"])
-    mus = sorted({r["mu"] for r in rows})
-
-    def per_mu(key):
-        return [np.mean([float(r.get(key) or 0) for r in rows if r["mu"] == m]) for m in mus]
-
-    def spread(key):
-        return [np.std([float(r.get(key) or 0) for r in rows if r["mu"] == m]) for m in mus]
-
-    fig = Figure(figsize=(10, 4))
-    ax1, ax2 = fig.subplots(1, 2)
-    ax1.errorbar(mus, per_mu("density_rho"), spread("density_rho"), fmt="o-", capsize=2,
-                 label="rho: elementary clusters per interior disk")
+    mus = [b["mu"] for b in by_mu]
+    fig = Figure(figsize=(15, 4.4))
+    ax1, ax2, ax3 = fig.subplots(1, 3)
+    ax1.errorbar(mus, [b["rho_mean"] for b in by_mu], [b["rho_sd"] for b in by_mu], fmt="o-",
+                 capsize=2, label="rho: elementary clusters per interior disk (mean ± sd; "
+                                  "determinate packings count 0)")
     ax1.set(xscale="log", xlabel="mu", ylabel="rho", title="density of elementary clusters")
     ax1.legend(fontsize=7)
-    ax2.plot(mus, per_mu("largest_domain_fraction"), "s-",
-             label="largest domain / slice contacts")
-    ax2.plot(mus, per_mu("varying_fraction"), "^-", label="varying contacts / slice contacts")
-    ax2.plot(mus, per_mu("percolates"), "ko:", mfc="none", label="fraction percolating")
-    ax2.set(xscale="log", xlabel="mu", ylabel="fraction", ylim=(-0.03, 1.03),
-            title="localisation of indeterminacy")
-    ax2.legend(fontsize=7)
-    save_figure(fig, out / "fig2_clusters.png", tight=True)
-    figures = ["fig2_clusters.png"]
-    if _draw_examples(rows, out):
-        figures.insert(0, "fig2.png")
 
-    numbers: dict = {"packings": len(rows), "tasks_failed": len(failed),
-                     "rho_by_mu": dict(zip([f"{m:.3g}" for m in mus], per_mu("density_rho"))),
-                     "percolating_by_mu": dict(zip([f"{m:.3g}" for m in mus],
-                                                   per_mu("percolates"))),
-                     "largest_domain_fraction_by_mu": dict(zip(
-                         [f"{m:.3g}" for m in mus], per_mu("largest_domain_fraction")))}
-    verdicts = []
-    small = [r for r in rows if r["mu"] <= 0.2 and r.get("dim_S")]
-    large = [r for r in rows if r["mu"] >= 0.5 and r.get("dim_S")]
-    if small and large:
-        ps, pl = np.mean([r["percolates"] for r in small]), np.mean([r["percolates"] for r in
-                                                                     large])
-        fs_, fl = (np.mean([r["largest_domain_fraction"] for r in x]) for x in (small, large))
-        verdicts.append(Verdict(
-            "fig2", "Indeterminacy spans the system at small mu and localises into small "
-                    "separated domains at large mu",
-            f"largest domain {100 * fs_:.0f} % of the slice's contacts at mu <= 0.2, "
-            f"{100 * fl:.0f} % at mu >= 0.5; percolating: {100 * ps:.0f} % vs {100 * pl:.0f} % "
-            f"of the packings with dim S > 0",
-            "reproduced" if fl < fs_ and pl <= ps else "refuted"))
-    el = [r for r in rows if r.get("n_elementary") and r["mu"] >= 0.3]
-    if el:
-        sizes = np.concatenate([r["elementary_sizes_contacts"] for r in el])
-        numbers["elementary_sizes_mu_ge_0.3"] = {"median": float(np.median(sizes)),
-                                                 "min": int(sizes.min()),
-                                                 "max": int(sizes.max())}
-        verdicts.append(Verdict(
-            "fig2", "At large mu the indeterminacy sits in small elementary clusters (one "
-                    "degree of freedom, irreducible; smallest 4 disks and 5 contacts)",
-            f"{sizes.size} elementary clusters at mu >= 0.3: {sizes.min()}-{sizes.max()} "
-            f"contacts (median {np.median(sizes):.0f})",
-            "reproduced" if sizes.min() <= 6 else "refuted"))
-    ol = [r["other_loads"] for r in rows if r.get("other_loads")]
-    if ol:
-        tot = {k: sum(o[k] for o in ol) for k in ("n_domains", "same_domains", "n_elementary",
-                                                   "same_clusters")}
-        numbers["other_loads"] = tot
-        verdicts.append(Verdict(
-            "fig2", "The same clusters appear under other boundary loads (a property of the "
-                    "contact network)",
-            f"{tot['same_domains']} of {tot['n_domains']} domains of indeterminacy found again "
-            f"(same contacts) after replacing the loads by another admissible network's "
-            f"({len(ol)} packings); elementary clusters of the greedy basis: "
-            f"{tot['same_clusters']} of {tot['n_elementary']} (a basis is one of many)",
-            "reproduced" if tot["same_domains"] >= 0.8 * tot["n_domains"] else "refuted"))
-    text = (f"{len(rows)} packings (the fig1 packings, slice 28 R). rho counts elementary "
-            "clusters (circuits whose contacts carry exactly one degree of freedom) per "
-            "interior disk; a circuit basis is chosen greedily from L1-minimal circuits, so "
-            "rho is a lower bound where sparser bases exist. A domain percolates when its "
-            "disks touch both the top and the bottom loads of the slice. Fig. 2: the "
-            "difference of two vertices of S (far apart along a random direction of its "
-            "affine hull), normal-force differences red (+) / blue (-), domains outlined in "
-            "colour, elementary clusters dashed.")
-    write_section(out, "fig2", "Fig. 2: elementary clusters and the localisation of "
-                  "indeterminacy", text, verdicts, numbers, figures)
-    return {"tasks": len(results), "failed": len(failed), "figures": figures,
-            "verdicts": [v.verdict for v in verdicts]}
+    def line(ax, key, fmt, label, bs=None):
+        pts = [(b["mu"], b[key]) for b in (bs or by_mu) if b[key] is not None]
+        if pts:
+            ax.plot(*zip(*pts), fmt, mfc="none" if ":" in fmt else None, label=label)
+
+    line(ax2, "largest_domain_fraction", "s-", "largest domain / slice contacts")
+    line(ax2, "varying_fraction", "^-", "varying contacts / slice contacts")
+    line(ax2, "percolating", "ko:", "fraction of packings percolating")
+    ax2.axvline(SMALL_MU, color="grey", lw=0.8, ls="--")
+    ax2.axvline(LARGE_MU, color="grey", lw=0.8, ls="--")
+    ax2.set(xscale="log", xlabel="mu", ylabel="fraction", ylim=(-0.03, 1.03),
+            title="localisation of indeterminacy (dim S > 0)")
+    ax2.legend(fontsize=7)
+    for key, n, fmt, label in (("localised_found_again", "localised_domains", "o-",
+                                "localised domains found again (same contacts)"),
+                               ("percolating_found_again", "percolating_domains", "s-",
+                                "percolating domains found again (same contacts)")):
+        pts = [(b["mu"], b[key] / b[n]) for b in by_mu if b[n]]
+        if pts:
+            ax3.plot(*zip(*pts), fmt, label=label)
+    line(ax3, "percolating_jaccard", "kd:", "percolating domains: best-match Jaccard")
+    ax3.axhline(FOUND_AGAIN, color="grey", lw=0.8, ls="--")
+    ax3.set(xscale="log", xlabel="mu", ylabel="fraction", ylim=(-0.03, 1.03),
+            title="the same domains under other loads")
+    ax3.legend(fontsize=7)
+    save_figure(fig, out / "fig2_clusters.png", tight=True)
+
+
+def _text(rows, numbers) -> str:
+    if not rows:
+        return "No finished task."
+    par = rows[0].get("params") or {}
+    h = par.get("slice_height")
+    h = f"{h:g} R" if h is not None else "slice"
+    loc, perc = numbers["other_loads"]["localised"], numbers["other_loads"]["percolating"]
+    n_fail = sum(len(v) for v in numbers["failures_by_mu"].values())
+    return (
+        f"{numbers['packings_analysed']} packings analysed (the fig1 packings: "
+        f"{par.get('n_disks', '?')} disks of the scene `{par.get('scene', '?')}`, one per mu "
+        f"and seed; the slice is the middle {h}, contacts with disks outside are fixed "
+        f"loads), {numbers['packings_determinate']} of them determinate (dim S = 0: no "
+        "domain, rho = 0, kept in the table and in rho; the localisation verdicts are about "
+        "packings with dim S > 0). rho counts elementary clusters (circuits whose contacts "
+        "carry exactly one degree of freedom) per interior disk; a circuit basis is chosen "
+        "greedily from L1-minimal circuits, so rho is a lower bound where sparser bases "
+        "exist. A domain of indeterminacy is a set of contacts whose forces vary together in "
+        "S (unique, unlike a basis); it percolates when its disks touch both the top and the "
+        "bottom loads of the slice, and is localised otherwise.\n\n"
+        "Other loads: the loads of the slice are replaced by those of another admissible "
+        "network of the whole packing, a generic one: the midpoint of the full packing's "
+        "jammed network kicked by uniform +-<Fn>/2 on its free force components and "
+        "projected exactly onto the full packing's S (seeded by the packing's seed), and "
+        "the Chebyshev centre of that S, so a point inside S, not on its boundary (the "
+        "projection alone lands on the boundary, where the slice's S under its loads is a "
+        "lower-dimensional face, so its domains change for that reason alone; the "
+        "change of dim S under the other loads is reported). S of the slice is analysed "
+        "and decomposed again. A domain is found again when the same contact set is a "
+        "domain "
+        "under the other loads; its overlap is the best Jaccard index |A & B| / |A | B| "
+        "with a domain under the other loads. The paper's claim is judged on the localised "
+        "domains (the elementary clusters it shows); the percolating domain, where exact "
+        "set equality turns on single contacts, is reported separately with its overlap "
+        f"and the change of dim S: {loc['found_again']} of {loc['domains']} localised and "
+        f"{perc['found_again']} of {perc['domains']} percolating domains found again.\n\n"
+        "Figures: the difference of two vertices of S (far apart along a random direction "
+        "of its affine hull), normal-force differences red (+) / blue (-), domains outlined "
+        "in colour, elementary clusters dashed; rho, localisation and the domains found "
+        "again against mu (table: `fig2.csv`, per domain `fig2_domains.csv`). "
+        + (f"{n_fail} failures (tasks, analyses or other-loads steps) are listed per mu under "
+           "`failures_by_mu` in the numbers below." if n_fail else "No task, analysis or "
+           "other-loads step failed."))
 
 
 def _draw_examples(rows, out) -> bool:

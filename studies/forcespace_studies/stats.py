@@ -162,3 +162,27 @@ def packings_to_decide(k: int, n: int, level: float = 0.95, limit: int = 1000):
         if majority_call(int(round(p * m)), m, level) != "undecided":
             return m
     return None
+
+
+def pooled_fraction(hits, totals, n_boot: int = N_BOOT, seed: int = 0):
+    """(sum hits / sum totals, lo, hi): a fraction of items pooled over packings (e.g.
+    domains found again; ``hits[i]`` of ``totals[i]`` items on packing i) with its 95 %
+    bootstrap interval, packings resampled with their items (items of one packing are not
+    independent). nan for no item."""
+    h, t = np.asarray(hits, float), np.asarray(totals, float)
+    keep = t > 0
+    h, t = h[keep], t[keep]
+    if t.size == 0:
+        return float("nan"), float("nan"), float("nan")
+    rng = np.random.default_rng(seed)
+    pick = rng.integers(0, t.size, (n_boot, t.size))
+    boots = h[pick].sum(1) / t[pick].sum(1)
+    return float(h.sum() / t.sum()), *np.quantile(boots, [0.025, 0.975]).tolist()
+
+
+def all_of(*verdicts: str) -> str:
+    """A claim made of several conditions (each an :func:`interval_verdict`): refuted if
+    one is refuted, reproduced if every one is, else not decidable."""
+    if "refuted" in verdicts:
+        return "refuted"
+    return "reproduced" if all(v == "reproduced" for v in verdicts) else "not decidable"
