@@ -103,7 +103,8 @@ Where our protocol differs from the paper's, and how that could move the numbers
   the billiard walk (exact reflections, also uniform; 300-900x cheaper per effective
   sample than hit-and-run, `studies/sampler_cost.md`) at every n, hit-and-run at
   n <= 400 only; the relax walk is not run there. Its bulk measure is a fixed interior
-  window (the n0 = 200 slice, 42 R x 28 R) as the slice grows; n = 5000 is not run.
+  window (the n0 = 200 slice, 42 R x 28 R) as the slice grows; up to n = 5000 (4
+  packings per mu there, 10 per mu at n <= 2000).
 - **Failed tasks** keep their analysis rows (rule 5) and are listed.
 """
 
