@@ -377,6 +377,16 @@ def test_size_quick_scaled_boxes_and_indeterminacy_bookkeeping(tmp_path, capsys)
     assert sorted(rows) == [f"n{n}_mu0.1_s{s}" for n in (40, 50, 60) for s in (1, 2)]
     # seed-major: every size of seed 1 before any of seed 2
     assert [t.params["seed"] for t in size.tasks(quick=True)] == [1, 1, 1, 2, 2, 2]
+    # the full sweep: fewer packings where they cost most, the creeping (n, mu) last
+    full = size.tasks()
+    per = {}
+    for t in full:
+        per.setdefault((t.params["n_disks"], t.params["mu"]), []).append(t.params["seed"])
+    assert per[(5000, 0.1)] == [1, 2, 3, 4] and per[(2000, 0.1)] == list(range(1, 11))
+    late = {(n, mu) for n, mu in size.FULL["last"]}
+    first_late = min(i for i, t in enumerate(full)
+                     if (t.params["n_disks"], t.params["mu"]) in late)
+    assert all((t.params["n_disks"], t.params["mu"]) in late for t in full[first_late:])
     # the box keeps its shape: width and slice height scale by sqrt(n / 40) from the
     # quick scene (20 R, 10 R), so the slice holds the same share of the disks
     share = {}
