@@ -110,3 +110,51 @@ def test_hit_and_run_on_a_determinate_S_reports_eta_0_and_dim_0():
     _, prob = grooves([0.3, 0.5, 0.7], mu=0.0)
     har = fs.HitAndRun(n=20, seed=1).compute(prob)
     assert har.summary()["dim_S"] == 0 and har.ensemble.eta == 0.0
+
+
+def _column():
+    """Ten unit disks stacked on the floor at x = 5 (y = 1, 3, ..., 19; disk 9 on top),
+    touching, and a remote disk 10 on the floor at x = 15, touching nothing else."""
+    from forcespace.model.packing import BOTTOM, Packing
+    x = np.r_[np.full(10, 5.0), 15.0]
+    y = np.r_[1.0 + 2.0 * np.arange(10), 1.0]
+    a = np.r_[BOTTOM, np.arange(9), BOTTOM]
+    b = np.r_[0, np.arange(1, 10), 10]
+    return Packing.from_arrays(x, y, np.ones(11), a, b, width=30.0, periodic_x=True,
+                               y_bottom=0.0, gravity=1.0)
+
+
+def test_rearrangement_is_the_connected_displaced_region():
+    p = _column()
+    d = np.zeros(11)
+    d[[7, 8, 9, 10]] = 0.5                  # the top three and the remote disk
+    r = measures.rearrangement_depth(p, 9, d)
+    assert r.region.tolist() == [7, 8, 9] and r.size == 3 and r.displaced == 4
+    assert r.depth == pytest.approx(4.0) and r.floor_gap == pytest.approx(14.0)
+    assert not r.reaches_floor
+    # the pushed disk did not move: its displaced contact neighbours seed the region
+    d[9] = 0.0
+    assert measures.displaced_region(p, 9, d).tolist() == [7, 8]
+    # a gap in the chain ends the region; displaced disks below it are not part of it
+    d = np.zeros(11)
+    d[[9, 8, 6, 5]] = 0.3
+    r = measures.rearrangement_depth(p, 9, d)
+    assert r.region.tolist() == [8, 9] and r.depth == pytest.approx(2.0)
+    # only the remote disk moved: no rearrangement around the push (the old measure
+    # took its depth, 18 R); at the threshold itself a disk has not moved
+    d = np.zeros(11)
+    d[10], d[8] = 3.0, 0.1
+    r = measures.rearrangement_depth(p, 9, d)
+    assert r.size == 0 and r.depth == 0.0 and r.displaced == 1 and not r.reaches_floor
+    # the whole column moved: the region reaches the floor (censored), depth 18 R
+    d = np.r_[np.full(10, 0.2), 0.0]
+    r = measures.rearrangement_depth(p, 9, d)
+    assert r.size == 10 and r.depth == pytest.approx(18.0) and r.reaches_floor
+    assert r.floor_gap == pytest.approx(0.0)
+    # the lowest disk of the region 1.5 R above the floor is in the bottom layer
+    p.y[:] += np.r_[np.full(10, 1.5), 0.0]
+    d = np.r_[np.full(10, 0.2), 0.0]
+    assert measures.rearrangement_depth(p, 9, d).reaches_floor
+    assert not measures.rearrangement_depth(p, 9, d, floor_layer=1.0).reaches_floor
+    with pytest.raises(InputError):
+        measures.rearrangement_depth(p, 9, np.zeros(3))

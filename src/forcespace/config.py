@@ -78,3 +78,7 @@ MIN_DRAWS_PER_CHAIN = 100   # [samples] a target-ESS run stops no earlier: ESS e
 
 # ---- point force ----------------------------------------------------------------------------
 DISPLACED = 0.1             # [R] a disk moved by more than this took part in a rearrangement
+FLOOR_LAYER = 2.0           # [R] a disk whose lowest point lies less than this (the smallest
+                            # diameter) above the floor is in the bottom layer: no disk fits
+                            # under it, so a rearrangement that reaches it is cut off by the
+                            # floor (censored)

@@ -14,6 +14,8 @@ slice whose forces are sampled; fixed boundary loads are not included).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from . import config
@@ -99,13 +101,87 @@ def surface_disk(packing) -> int:
     return int(np.argmax(np.asarray(packing.y) + np.asarray(packing.r)))
 
 
-def rearrangement_depth(packing, disk: int, displacement, threshold: float | None = None):
-    """(depth [R], number of displaced disks): from ``disk``'s centre down to the
-    lowest centre among the disks displaced by more than ``threshold`` R
-    (default ``config.DISPLACED``)."""
+@dataclass(frozen=True)
+class Rearrangement:
+    """The rearrangement a push caused (:func:`rearrangement_depth`).
+
+    region: indices of its disks (sorted); depth [R]: from the pushed disk's centre down
+    to the lowest centre of the region (0 when the region is empty or lies above it);
+    floor_gap [R]: the lowest point of the region's lowest-reaching disk above the floor
+    (nan without a floor or a region); reaches_floor: floor_gap < ``config.FLOOR_LAYER``
+    (the region reaches the bottom layer: the floor cut it off, its depth is censored);
+    displaced: disks displaced by more than the threshold anywhere (the region's and
+    others, e.g. a disk creeping elsewhere in the layer)."""
+
+    region: np.ndarray
+    depth: float
+    floor_gap: float
+    reaches_floor: bool
+    displaced: int
+
+    @property
+    def size(self) -> int:
+        """Disks in the region."""
+        return int(self.region.size)
+
+
+def contact_neighbours(packing) -> list[np.ndarray]:
+    """For each disk, the disks it touches: the packing's disk-disk contacts (those it
+    lists, near-contacts within its gap tolerance included); walls are not bodies here."""
+    a, b = np.asarray(packing.a), np.asarray(packing.b)
+    both = (a >= 0) & (b >= 0)
+    a, b = a[both], b[both]
+    n = packing.n_disks
+    ends = np.concatenate([a, b])
+    other = np.concatenate([b, a])
+    order = np.argsort(ends, kind="stable")
+    split = np.searchsorted(ends[order], np.arange(n + 1))
+    return [np.unique(other[order][split[i]:split[i + 1]]) for i in range(n)]
+
+
+def displaced_region(packing, disk: int, displacement, threshold: float | None = None
+                     ) -> np.ndarray:
+    """The connected displaced region around ``disk``: the disks displaced by more than
+    ``threshold`` R (default ``config.DISPLACED``) that are joined to ``disk`` through
+    contacts of ``packing`` (its settled state) via displaced disks only. ``disk`` itself
+    and its contact neighbours seed the region (those of them that are displaced); a
+    displaced disk with no such path (a disk creeping elsewhere) is not part of it.
+    Returns the sorted indices (empty when no seed is displaced)."""
     threshold = config.DISPLACED if threshold is None else threshold
-    moved = np.flatnonzero(np.asarray(displacement) > threshold)
-    if moved.size == 0:
-        return 0.0, 0
-    y = np.asarray(packing.y)
-    return float(max(y[disk] - y[moved].min(), 0.0)), int(moved.size)
+    moved = np.asarray(displacement, float) > threshold
+    if moved.shape != (packing.n_disks,):
+        raise InputError("rearrangement", "displacement", f"must have shape "
+                         f"({packing.n_disks},), one value per disk", got=moved.shape)
+    nb = contact_neighbours(packing)
+    seeds = [int(j) for j in np.concatenate([[disk], nb[disk]]) if moved[j]]
+    inside = np.zeros(packing.n_disks, bool)
+    inside[seeds] = True
+    stack = list(seeds)
+    while stack:
+        i = stack.pop()
+        for j in nb[i]:
+            if moved[j] and not inside[j]:
+                inside[j] = True
+                stack.append(int(j))
+    return np.flatnonzero(inside)
+
+
+def rearrangement_depth(packing, disk: int, displacement, threshold: float | None = None,
+                        floor_layer: float | None = None) -> Rearrangement:
+    """The rearrangement around a push on ``disk`` (:class:`Rearrangement`): the
+    connected displaced region (:func:`displaced_region`, threshold default
+    ``config.DISPLACED`` R), its depth below ``disk``'s centre, and whether it reaches
+    the bottom layer (lowest point less than ``floor_layer``, default
+    ``config.FLOOR_LAYER`` R, above the floor ``packing.y_bottom``). Positions are
+    ``packing``'s (the state before the push)."""
+    threshold = config.DISPLACED if threshold is None else threshold
+    floor_layer = config.FLOOR_LAYER if floor_layer is None else floor_layer
+    region = displaced_region(packing, disk, displacement, threshold)
+    displaced = int((np.asarray(displacement, float) > threshold).sum())
+    if region.size == 0:
+        return Rearrangement(region, 0.0, float("nan"), False, displaced)
+    y, r = np.asarray(packing.y, float), np.asarray(packing.r, float)
+    depth = float(max(y[disk] - y[region].min(), 0.0))
+    gap = float((y[region] - r[region]).min() - packing.y_bottom) \
+        if np.isfinite(packing.y_bottom) else float("nan")
+    return Rearrangement(region, depth, gap, bool(gap < floor_layer), displaced)

@@ -53,15 +53,34 @@ def near(value: float) -> tuple[float, float]:
 def bootstrap_mean(groups: dict, n_boot: int = N_BOOT, seed: int = 0) -> dict:
     """{key: (mean, lo, hi)}: the mean of each group (array over packings) and its 95 %
     bootstrap interval (resampling packings)."""
+    return bootstrap_stat(groups, np.mean, n_boot, seed)
+
+
+def bootstrap_stat(groups: dict, stat=np.median, n_boot: int = N_BOOT, seed: int = 0) -> dict:
+    """{key: (stat, lo, hi)}: a statistic (``stat(array, axis=...)``: np.median, np.mean)
+    of each group (array over packings) and its 95 % bootstrap interval (resampling
+    packings); empty groups are left out."""
     rng = np.random.default_rng(seed)
     out = {}
     for key, v in groups.items():
         v = np.asarray(v, float)
         if v.size == 0:
             continue
-        boots = rng.choice(v, (n_boot, v.size)).mean(1)
-        out[key] = (float(v.mean()), *np.quantile(boots, [0.025, 0.975]).tolist())
+        boots = stat(rng.choice(v, (n_boot, v.size)), axis=1)
+        out[key] = (float(stat(v)), *np.quantile(boots, [0.025, 0.975]).tolist())
     return out
+
+
+def difference_interval(a, b, stat=np.mean, n_boot: int = N_BOOT, seed: int = 0):
+    """(stat(a) - stat(b), lo, hi): a difference of two independent groups' statistics
+    with its 95 % bootstrap interval (both groups resampled)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.size == 0 or b.size == 0:
+        return float("nan"), float("nan"), float("nan")
+    rng = np.random.default_rng(seed)
+    d = stat(rng.choice(a, (n_boot, a.size)), axis=1) - stat(rng.choice(b, (n_boot, b.size)),
+                                                           axis=1)
+    return float(stat(a) - stat(b)), *np.quantile(d, [0.025, 0.975]).tolist()
 
 
 def peak_of_log_parabola(x, y):
@@ -117,13 +136,14 @@ def ratio_interval(a, b, n_boot: int = N_BOOT, seed: int = 0):
     return float(a.mean() / b.mean()), *np.quantile(r, [0.025, 0.975]).tolist()
 
 
-def argmax_bootstrap(groups: dict, n_boot: int = N_BOOT, seed: int = 0):
-    """x of the largest group mean, and its 2.5-97.5 % bootstrap interval over packings
-    (grid values)."""
+def argmax_bootstrap(groups: dict, n_boot: int = N_BOOT, seed: int = 0, stat=np.mean):
+    """x of the largest group statistic (``stat``: the mean, or e.g. np.median), and its
+    2.5-97.5 % bootstrap interval over packings (grid values; packings resampled within
+    each group)."""
     xs = np.array(list(groups))
-    means = np.array([np.mean(v) for v in groups.values()])
+    means = np.array([stat(v) for v in groups.values()])
     rng = np.random.default_rng(seed)
-    picks = [xs[int(np.argmax([rng.choice(v, len(v)).mean() for v in groups.values()]))]
+    picks = [xs[int(np.argmax([stat(rng.choice(v, len(v))) for v in groups.values()]))]
              for _ in range(n_boot)]
     lo, hi = np.quantile(picks, [0.025, 0.975], method="inverted_cdf")
     return float(xs[int(np.argmax(means))]), float(lo), float(hi)

@@ -312,12 +312,22 @@ def test_pointforce_quick_and_report_only(tmp_path, capsys):
     summary = run_quick("pointforce", out, capsys)
     assert summary["failed"] == 0
     rows = [json.loads(f.read_text()) for f in sorted((out / "tasks").glob("*.json"))]
+    by_mu = json.loads((out / "verdicts.json").read_text())["numbers"]["by_mu"]
+    for mu in ("0.01", "0.1", "1"):
+        # a layer whose control run (no force) displaced a disk is counted, not judged
+        restless = [r for r in rows if r["mu"] == float(mu)
+                    and r.get("control_max_displacement", 0.0) > 0.1]
+        assert by_mu[mu]["restless"] == len(restless)
     for r in rows:
-        # the settled layer is at rest: without the force nothing moves
-        assert r.get("control_max_displacement", 0.0) < 0.01
-        if not r["carries_any_force"] and r["push_depth"] is not None:
-            assert r["push_displaced"] >= 1 and r["push_max_displacement"] > 0.1
+        if not r["carries_any_force"] and r["rearranged"]:
+            # the region holds displaced disks only, reaches no deeper than the floor
+            assert 1 <= r["region_size"] <= r["displaced_total"]
+            assert r["push_max_displacement"] > 0.1
+            assert 0 <= r["depth"] <= r["thickness"] and r["thickness"] > 5
+            assert r["reaches_floor"] == (r["floor_gap"] < 2.0)
     assert summary["pushed"] >= 2
+    doc = json.loads((out / "verdicts.json").read_text())
+    assert doc["rules_version"] == 2 and (out / "pointforce_by_mu.csv").is_file()
     # summarising again without running anything gives the same report
     before = (out / "REPORT.md").read_text()
     assert main(["study", "pointforce", "--quick", "-o", str(out), "--report-only"]) == 0
