@@ -105,6 +105,18 @@ Where our protocol differs from the paper's, and how that could move the numbers
   n <= 400 only; the relax walk is not run there. Its bulk measure is a fixed interior
   window (the n0 = 200 slice, 42 R x 28 R) as the slice grows; up to n = 5000 (4
   packings per mu there, 10 per mu at n <= 2000).
+- **Other boundary loads (fig2).** The paper found "the same subgraphs ... for other
+  arrangements of boundary forces" without saying how they were made. Ours: the loads of
+  a generic admissible network of the whole packing (midway between the Chebyshev
+  centre of its S and the projection of a kicked jammed network onto S). Loads taken
+  from a point on the boundary of S (the projection alone, as in earlier runs) are not
+  generic: the slice's S then lost 1-3 dimensions and the percolating domain changed.
+- **Point-force layer.** The paper gives neither the layer's thickness nor how the force
+  was ramped. Ours: 320 disks in a 42 R periodic layer settled under gravity on a floor
+  with the disks' friction (>= 60 R thick; earlier runs used 100 disks, 20-23 R, and the
+  floor cut the deep rearrangements off); the highest disk is pushed with F* times
+  1.05, 1.1, ... 5 (F* the largest force its rigid network carries, by LP) until a disk
+  moves; the rearrangement is the contact-connected displaced region around the push.
 - **Failed tasks** keep their analysis rows (rule 5) and are listed.
 """
 
