@@ -333,7 +333,8 @@ def write_report(study_dirs, path) -> Path:
               "|---|---|---|---|---|"]
     for d in docs:
         for v in _shown_verdicts(d):
-            lines.append(f"| {d['study']} | {_claim(v)} | {SAMPLERS.get(v.get('sampler'), '')}"
+            where = d["study"] if d["dir"] == "." else d["dir"]   # own report: its name
+            lines.append(f"| {where} | {_claim(v)} | {SAMPLERS.get(v.get('sampler'), '')}"
                          f" | {_cell(v['ours'])} | **{v['verdict']}** |")
     lines += ["", "## Verdict rules", "", RULES, "## Protocol", "", PROTOCOL, LITERATURE]
     for d in docs:

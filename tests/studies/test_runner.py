@@ -94,6 +94,8 @@ def test_a_quick_run_is_a_smoke_test_and_defaults_to_the_working_directory(tmp_p
     assert verdicts["verdicts"][0]["quick_outcome"] == "reproduced"
     report = (out / "REPORT.md").read_text()
     assert "**reproduced**" not in report and "**smoke test (quick run)**" in report
+    # a study's own report names the study in its verdict table, not "." (its directory)
+    assert "\n| tiny | " in report and "\n| . | " not in report
     assert json.loads((out / "study.json").read_text())["quick"] is True
     # a full run into the quick directory is refused (other parameters)
     assert study("-o", out) == 2
