@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 import forcespace as fs
+from forcespace import config as fs_config
 from forcespace.measures import eta as eta_of
 from forcespace.space.structure import ClusterDecomposition, decompose, domains, percolates
 from forcespace.sweep import Task
@@ -70,6 +71,10 @@ FLAT = 0.1                # |slope| of log eta vs log n below which eta counts a
 MIN_SIZES = 3             # a sampler is judged only with converged eta at >= 3 sizes
 AIC_MARGIN = 2.0          # stated before the run: |AIC difference| > 2 favours a model
 SCOPES = ("slice", "window")
+# eta at or below this is zero within the samples' accuracy (config.SPREAD_FLOOR: a spread
+# per contact below 1e-8 <Fn> is round-off; a window at mu = 1 without a varying contact
+# gave eta = 6e-11): such a packing counts as determinate, not as a point of the log fit
+ETA_ZERO = fs_config.SPREAD_FLOOR
 
 
 def config(quick: bool) -> dict:
@@ -339,12 +344,13 @@ def _eta_key(scope: str, k: str) -> str:
 
 
 def eta_points(rows, mu, k, scope="slice"):
-    """(n, eta) arrays of the converged runs of sampler k at mu (rule 4) with eta > 0,
-    and the count of converged determinate ones (eta = 0, left out of the log fits)."""
+    """(n, eta) arrays of the converged runs of sampler k at mu (rule 4) with eta >
+    ETA_ZERO, and the count of converged determinate ones (eta = 0 within accuracy, left
+    out of the log fits)."""
     key = _eta_key(scope, k)
     ok = [r for r in rows if r["mu"] == mu and r.get(f"converged_{k}")
           and r.get(key) is not None]
-    pos = [(r["n"], r[key]) for r in ok if r[key] > 0]
+    pos = [(r["n"], r[key]) for r in ok if r[key] > ETA_ZERO]
     n = np.array([q[0] for q in pos], float)
     e = np.array([q[1] for q in pos], float)
     return n, e, len(ok) - len(pos)
@@ -410,7 +416,7 @@ def _by_n_table(rows, mus) -> list[dict]:
                     key = _eta_key(scope, k)
                     v = [r[key] for r in here if r.get(f"converged_{k}")
                          and r.get(key) is not None]
-                    pos = [x for x in v if x > 0]     # the population of the log fits
+                    pos = [x for x in v if x > ETA_ZERO]   # the population of the log fits
                     b = bootstrap_mean({0: pos}).get(0) if pos else None
                     row.update({f"{key}_mean": b[0] if b else None,
                                 f"{key}_lo": b[1] if b else None,
@@ -475,6 +481,8 @@ def summarize(results: list[dict], out) -> dict:
 
 
 def _eta_panel(ax, rows, by_n, fits, mus, scope, win):
+    from matplotlib.ticker import NullFormatter
+
     from .report import SAMPLERS as LABELS
 
     for i, mu in enumerate(mus):
@@ -507,6 +515,7 @@ def _eta_panel(ax, rows, by_n, fits, mus, scope, win):
            ylabel=r"$\eta = \langle \delta F\rangle / \langle |F| \rangle$ (dimensionless)",
            title=f"uniform eta > 0, {where}\n(converged runs; markers: packings; "
                  "band: 95 % CI of the mean)")
+    ax.xaxis.set_minor_formatter(NullFormatter())   # decades only: minor labels collide
     ax.legend(fontsize=6, loc="best")
 
 
