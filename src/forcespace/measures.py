@@ -125,45 +125,34 @@ class Rearrangement:
         return int(self.region.size)
 
 
-def contact_neighbours(packing) -> list[np.ndarray]:
-    """For each disk, the disks it touches: the packing's disk-disk contacts (those it
-    lists, near-contacts within its gap tolerance included); walls are not bodies here."""
-    a, b = np.asarray(packing.a), np.asarray(packing.b)
-    both = (a >= 0) & (b >= 0)
-    a, b = a[both], b[both]
-    n = packing.n_disks
-    ends = np.concatenate([a, b])
-    other = np.concatenate([b, a])
-    order = np.argsort(ends, kind="stable")
-    split = np.searchsorted(ends[order], np.arange(n + 1))
-    return [np.unique(other[order][split[i]:split[i + 1]]) for i in range(n)]
-
-
 def displaced_region(packing, disk: int, displacement, threshold: float | None = None
                      ) -> np.ndarray:
     """The connected displaced region around ``disk``: the disks displaced by more than
     ``threshold`` R (default ``config.DISPLACED``) that are joined to ``disk`` through
-    contacts of ``packing`` (its settled state) via displaced disks only. ``disk`` itself
-    and its contact neighbours seed the region (those of them that are displaced); a
-    displaced disk with no such path (a disk creeping elsewhere) is not part of it.
+    disk-disk contacts of ``packing`` (its settled state; near-contacts within its gap
+    tolerance included, walls are not bodies here) via displaced disks only. ``disk``
+    itself and its contact neighbours seed the region (those of them that are displaced);
+    a displaced disk with no such path (a disk creeping elsewhere) is not part of it.
     Returns the sorted indices (empty when no seed is displaced)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
     threshold = config.DISPLACED if threshold is None else threshold
     moved = np.asarray(displacement, float) > threshold
-    if moved.shape != (packing.n_disks,):
+    n = packing.n_disks
+    if moved.shape != (n,):
         raise InputError("rearrangement", "displacement", f"must have shape "
-                         f"({packing.n_disks},), one value per disk", got=moved.shape)
-    nb = contact_neighbours(packing)
-    seeds = [int(j) for j in np.concatenate([[disk], nb[disk]]) if moved[j]]
-    inside = np.zeros(packing.n_disks, bool)
-    inside[seeds] = True
-    stack = list(seeds)
-    while stack:
-        i = stack.pop()
-        for j in nb[i]:
-            if moved[j] and not inside[j]:
-                inside[j] = True
-                stack.append(int(j))
-    return np.flatnonzero(inside)
+                         f"({n},), one value per disk", got=moved.shape)
+    a, b = np.asarray(packing.a), np.asarray(packing.b)
+    a, b = a[(a >= 0) & (b >= 0)], b[(a >= 0) & (b >= 0)]
+    seeds = np.concatenate([[disk], b[a == disk], a[b == disk]])
+    seeds = seeds[moved[seeds]]
+    if seeds.size == 0:
+        return np.zeros(0, np.int64)
+    both = moved[a] & moved[b]          # edges between displaced disks only
+    graph = coo_matrix((np.ones(int(both.sum())), (a[both], b[both])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    return np.flatnonzero(moved & np.isin(label, label[seeds]))
 
 
 def rearrangement_depth(packing, disk: int, displacement, threshold: float | None = None,
