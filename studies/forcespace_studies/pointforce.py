@@ -85,8 +85,7 @@ def packing_task(scene: str, n_disks: int, width: float, mu: float, seed: int,
     p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks,
                               overrides={"physics__plate_mu": mu, "box__width": width})
     k = surface_disk(p)
-    dens = float(np.asarray(p.density)) if np.ndim(p.density) == 0 else float(p.density[k])
-    weight = dens * np.pi * float(p.r[k]) ** 2 * p.gravity
+    weight = float(p.mass[k]) * p.gravity
     t0 = time.perf_counter()
     f_star = max_point_force(p, k)
     row = {"mu": mu, "seed": seed, "z": p.coordination(), "disk": k, "weight": weight,
