@@ -144,3 +144,20 @@ def test_analyze_ranges_json_is_strict_json(tmp_path, capsys):
     fn = np.array(out["fn_range"])
     assert fn.shape == (out["n_contacts"], 2) and (fn[:, 0] <= fn[:, 1] + 1e-12).all()
     assert out["n_thin_directions"] == 0
+
+
+def test_interior_point_lp_prints_nothing_and_solves():
+    # highspy >= 1.12 prints its banner when the first Highs is built, before any option;
+    # a study's log and a user's pipe must not carry it. min x + y, x + y >= 1, x = y:
+    # the optimum is x = y = 1/2, the only point of the optimal face.
+    import subprocess
+    import sys
+    code = ("import numpy as np\n"
+            "from forcespace.space.lp import solve_lp_interior\n"
+            "st, x = solve_lp_interior(np.ones(2), np.array([[-1.0, -1.0]]), np.array([-1.0]),"
+            " np.array([[1.0, -1.0]]), np.zeros(1), np.zeros(2), np.full(2, np.inf))\n"
+            "import sys; sys.stderr.write(f'{st} {x[0]:.9f} {x[1]:.9f}')\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert run.stdout == ""
+    st, x0, x1 = run.stderr.split()[-3:]
+    assert st == "0" and abs(float(x0) - 0.5) < 1e-7 and abs(float(x1) - 0.5) < 1e-7

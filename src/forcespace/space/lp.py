@@ -8,6 +8,9 @@ problem scaled to <Fn> = 1 (:func:`unit_problem`) and its answers scaled back.
 """
 from __future__ import annotations
 
+import os
+import sys
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
@@ -101,6 +104,33 @@ def unit_problem(problem: StaticsProblem):
     return (problem if s == 1.0 else problem.scaled(1.0 / s)), s
 
 
+_BANNER_SILENCED = False
+
+
+def _quiet_highs():
+    """A ``highspy.Highs`` without its banner. highspy (>= 1.12) prints "Running HiGHS ...
+    Copyright ..." to the process's standard output when the first ``Highs`` is built,
+    before any option can be set (ERGO-Code/HiGHS#1702, #2749): that first construction
+    runs with file descriptor 1 pointed at the null device. Later ones print nothing."""
+    import highspy
+
+    global _BANNER_SILENCED
+    if _BANNER_SILENCED:
+        return highspy.Highs()
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            h = highspy.Highs()
+            h.setOptionValue("output_flag", False)
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+    _BANNER_SILENCED = True
+    return h
+
+
 def solve_lp_interior(c, A_ub, b_ub, A_eq, b_eq, lo, hi, tol: float = 1e-9):
     """min c.x s.t. A_ub x <= b_ub, A_eq x = b_eq, lo <= x <= hi by HiGHS' interior point
     **without crossover** (highspy): the solution lies in the relative interior of the
@@ -122,7 +152,7 @@ def solve_lp_interior(c, A_ub, b_ub, A_eq, b_eq, lo, hi, tol: float = 1e-9):
     lp.a_matrix_.start_ = A.indptr
     lp.a_matrix_.index_ = A.indices
     lp.a_matrix_.value_ = A.data
-    h = highspy.Highs()
+    h = _quiet_highs()
     for key, value in (("output_flag", False), ("solver", "ipm"), ("run_crossover", "off"),
                        ("threads", 1), ("primal_feasibility_tolerance", tol),
                        ("dual_feasibility_tolerance", tol), ("ipm_optimality_tolerance", tol)):
