@@ -40,17 +40,21 @@ def config(quick: bool) -> dict:
 
 
 def tasks(quick: bool = False) -> list[Task]:
-    """Own-mu packings first, then the mu = 0 packings: the accuracy floor (S at mu = 0)
-    and the squares (the same packing, S at each mu of the sweep), one task each."""
+    """Seed-major, so that an interrupted study has complete seed rounds across the sweep:
+    for each seed, its own-mu packings (every mu), then, for the first ``squares`` seeds,
+    its mu = 0 packing sampled at mu = 0 (the accuracy floor) and at each mu of the sweep
+    (the squares), one task each."""
     cfg = config(quick)
     common = dict(scene=cfg["scene"], n_disks=cfg["n_disks"], slice_height=cfg["slice_height"],
                   cap=cfg["cap"], max_seconds=cfg["max_seconds"])
-    out = [Task(f"mu{mu:.3g}_s{seed}", "forcespace_studies.fig1:packing_task",
-                dict(common, mu=mu, seed=seed)) for mu in cfg["mus"] for seed in cfg["seeds"]]
-    for seed in cfg["seeds"][:cfg["squares"]]:
-        for ms in (0.0, *cfg["mus"]):
-            out.append(Task(f"mu0_on{ms:.3g}_s{seed}", "forcespace_studies.fig1:packing_task",
-                            dict(common, mu=0.0, seed=seed, mu_sample=ms)))
+    out = []
+    for k, seed in enumerate(cfg["seeds"]):
+        out += [Task(f"mu{mu:.3g}_s{seed}", "forcespace_studies.fig1:packing_task",
+                     dict(common, mu=mu, seed=seed)) for mu in cfg["mus"]]
+        if k < cfg["squares"]:
+            out += [Task(f"mu0_on{ms:.3g}_s{seed}", "forcespace_studies.fig1:packing_task",
+                         dict(common, mu=0.0, seed=seed, mu_sample=ms))
+                    for ms in (0.0, *cfg["mus"])]
     return out
 
 

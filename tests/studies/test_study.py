@@ -81,6 +81,23 @@ def test_fig1_quick_local_pool_resumes_and_equals_dask(tmp_path, capsys):
                              for k, v in row.items()} for row in mine]
 
 
+def test_fig1_full_plan_is_seed_major_and_complete():
+    # 20 mu x 10 seeds of own-mu packings, and for seeds 1-5 the mu = 0 packing sampled at
+    # mu = 0 and at each of the 20 mu (the squares): 305 tasks, none twice; an interrupted
+    # run leaves complete seed rounds (every task of seed s before any of seed s + 1)
+    full = fig1.tasks()
+    names = [t.name for t in full]
+    assert len(names) == len(set(names)) == 20 * 10 + 5 * 21 == 305
+    seeds = [t.params["seed"] for t in full]
+    assert seeds == sorted(seeds)
+    own = {(t.params["mu"], t.params["seed"]) for t in full if t.params.get("mu_sample") is None}
+    assert own == {(mu, s) for mu in fig1.MUS for s in range(1, 11)}
+    squares = [t for t in full if t.params.get("mu_sample") is not None]
+    assert {t.params["mu"] for t in squares} == {0.0}
+    assert {(t.params["mu_sample"], t.params["seed"]) for t in squares} == {
+        (ms, s) for ms in (0.0, *fig1.MUS) for s in range(1, 6)}
+
+
 def test_a_failing_task_is_a_result_and_names_must_be_unique(tmp_path):
     bad = Task("bad", "forcespace_studies.fig1:packing_task",
                dict(scene="quick", n_disks=0, slice_height=10.0, cap=2, mu=0.1, seed=1))
