@@ -33,7 +33,8 @@ from forcespace.sweep import Task
 
 from . import fig1, stats
 from .common import shared_packing
-from .report import RULES_VERSION, Verdict, failed_tasks_note, write_csv, write_section
+from .report import (RULES_VERSION, Verdict, failed_tasks_note, failures_per_mu, write_csv,
+                     write_section)
 
 REUSE = ("fig1",)
 SMALL_MU = 0.2        # "small mu": mu <= this
@@ -211,11 +212,6 @@ def summarize(results: list[dict], out) -> dict:
             "verdicts": [v.verdict for v in verdicts]}
 
 
-def _mu(r) -> str:
-    mu = r.get("mu", (r.get("params") or {}).get("mu"))
-    return "?" if mu is None else f"{mu:g}"
-
-
 def judge(results: list[dict]) -> tuple[dict, list[Verdict]]:
     """The numbers and verdicts of the study from its task results (a pure function of
     them: the report's rules, readings fixed by the module's constants)."""
@@ -223,17 +219,10 @@ def judge(results: list[dict]) -> tuple[dict, list[Verdict]]:
     failed = [r for r in results if not r.get("ok")]
     done = [r for r in rows if r.get("dim_S") is not None]     # analysed
     ind = [r for r in done if r["dim_S"]]                       # indeterminate
-    trouble: dict = {}
-    for r in failed:
-        trouble.setdefault(_mu(r), []).append(f"{r.get('task')}: task failed: {r.get('error')}")
-    for r in rows:
-        for key in ("error_analysis", "error_other_loads"):
-            if r.get(key):
-                trouble.setdefault(_mu(r), []).append(f"{r.get('task')}: {key}: {r[key]}")
     numbers: dict = {"tasks": len(results), "tasks_failed": len(failed),
                      "failed": [f"{r.get('task')}: {r.get('error')}" for r in failed],
-                     "failures_by_mu": dict(sorted(trouble.items(), key=lambda kv: float(
-                         kv[0]) if kv[0] != "?" else np.inf)),
+                     "failures_by_mu": failures_per_mu(results, ("error_analysis",
+                                                                  "error_other_loads")),
                      "packings_analysed": len(done), "packings_determinate": len(done) - len(ind),
                      "by_mu": _by_mu(done)}
     verdicts = [_localisation(ind, numbers), _elementary(ind, numbers)]

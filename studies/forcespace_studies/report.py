@@ -225,6 +225,28 @@ def failed_tasks_note(failed: list, results: list) -> str:
             f"analysis row); the reasons are under `failed` in the numbers below.")
 
 
+def failures_per_mu(results: list, row_errors: tuple = ()) -> dict:
+    """{"mu": [message, ...]} sorted by mu ("?" last): every task that failed as a whole
+    ("TASK: task failed: ERROR") and, for the tasks that returned, each named key of
+    ``row_errors`` that a row carries ("TASK: KEY: ERROR"), so that a failed step keeps
+    its analysis row and is still listed."""
+    def mu_of(r):
+        mu = r.get("mu", (r.get("params") or {}).get("mu"))
+        return "?" if mu is None else f"{mu:g}"
+
+    per: dict = {}
+    for r in results:
+        if not r.get("ok"):
+            per.setdefault(mu_of(r), []).append(f"{r.get('task')}: task failed: {r.get('error')}")
+            continue
+        for row in r.get("rows") or [r]:
+            for key in row_errors:
+                if row.get(key):
+                    per.setdefault(mu_of(row), []).append(f"{row.get('task', r.get('task'))}: "
+                                                          f"{key}: {row[key]}")
+    return dict(sorted(per.items(), key=lambda kv: float(kv[0]) if kv[0] != "?" else float("inf")))
+
+
 def _shown_verdicts(doc: dict) -> list[dict]:
     """The verdicts as the report shows them: a quick run's as smoke tests, and those of
     a summary written before the rules of this report marked as such."""

@@ -55,6 +55,7 @@ from forcespace.space.projection import distance_to_S
 from forcespace.space.selection import packing_overlaps
 from forcespace.sweep import Task
 
+from .common import shared_packing
 from .stats import binomial_interval, bootstrap_mean, majority_call, packings_to_decide
 
 # landed_tol: a soft network counts when it has no contact outside the rigid network
@@ -102,15 +103,6 @@ def tasks(quick: bool = False) -> list[Task]:
                                  pymunk=list(cfg["pymunk"]), max_steps=cfg["max_steps"],
                                  landed_tol=cfg["landed_tol"])))
     return out
-
-
-def _packing(scene, n_disks, mu, seed, wd: Path):
-    pfile = wd / "packing.h5"
-    if pfile.is_file():
-        return fs.read_packing(pfile), "reused"
-    p = fs.jam(scene, physics__mu=mu, scene__seed=seed, disks__n=n_disks)
-    fs.write_packing(p, pfile)
-    return p, "jammed"
 
 
 def lands(run: dict, landed_tol: float) -> bool:
@@ -254,7 +246,8 @@ def landing_task(scene: str, n_disks: int, mu: float, seed: int, kt_ratios, K, p
     from forcespace_adapters.pymunk_sim import PymunkOptions, simulate
 
     wd = Path(workdir)
-    p, origin = _packing(scene, n_disks, mu, seed, wd)
+    p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks)
+    origin = "jammed" if t_jam else "reused"
     S = fs.plate_problem(p)
     scale = S.force_scale
     # the centre only (analyze() would also decide, by LP, which contacts vary)
@@ -553,7 +546,8 @@ def summarize(results: list[dict], out) -> dict:
     """selection.csv (one row per packing and kt/kn, with the landing labels),
     selection_table.md (means over packings), selection.png/.pdf, verdicts.json and
     REPORT.md."""
-    from .report import RULES_VERSION, failed_tasks_note, write_csv, write_section
+    from .report import (RULES_VERSION, failed_tasks_note, failures_per_mu, write_csv,
+                         write_section)
 
     out = Path(out)
     rows = _rows(results)
@@ -572,7 +566,7 @@ def summarize(results: list[dict], out) -> dict:
         figures = ["selection.png"]
     numbers = {"rows": len(rows), "tasks": len(results), "tasks_failed": len(failed),
                "failed": [f"{r.get('task')}: {r.get('error')}" for r in failed],
-               "failed_per_mu": _failed_per_mu(failed),
+               "failed_per_mu": failures_per_mu(failed),
                "labels": {f"mu{mu:g}": {code: {lab: sum(1 for r in rows if r["mu"] == mu
                                                          and r[f"{code}_label"] == lab)
                                                for lab in (CONVERGED, LANDED, NOT_LANDED)}
@@ -588,15 +582,6 @@ def summarize(results: list[dict], out) -> dict:
     return {"tasks": len(results), "failed": len(failed), "rows": len(rows),
             "table": str(out / "selection.csv"), "markdown": str(out / "selection_table.md"),
             "figure": str(out / "selection.png"), "verdicts": [v.verdict for v in verdicts]}
-
-
-def _failed_per_mu(failed) -> dict:
-    per: dict = {}
-    for r in failed:
-        mu = (r.get("params") or {}).get("mu")
-        per.setdefault("?" if mu is None else f"mu{mu:g}", []).append(
-            f"{r.get('task')}: {r.get('error')}")
-    return per
 
 
 def _stat(vals):

@@ -592,7 +592,7 @@ def test_selection_verdicts_count_packings_not_rows(tmp_path):
     assert v[("LIGGGHTS", "0.1")]["verdict"] == "supported"
     assert "8 of 9 packings" in v[("LIGGGHTS", "0.1")]["ours"]
     assert "Clopper-Pearson" in v[("LIGGGHTS", "0.1")]["rule"]
-    assert doc["numbers"]["failed_per_mu"] == {"mu0.5": ["mu0.5_s11: LiggghtsError: boom"]}
+    assert doc["numbers"]["failed_per_mu"] == {"0.5": ["mu0.5_s11: task failed: LiggghtsError: boom"]}
     assert doc["numbers"]["labels"]["mu0.1"]["lig"] == {"converged": 18, "landed": 1,
                                                        "not landed": 1}
     text = doc["text"]
