@@ -246,6 +246,60 @@ def test_a_jammed_checkpoint_resumes_at_the_static_solve(tmp_path):
     assert not ck.exists()
 
 
+def test_a_failed_static_solve_sends_the_packing_back_to_compress(monkeypatch):
+    # a configuration that only looked at rest (the static solve ends above tolerance)
+    # is compressed further, the rest test suspended for UNSETTLE_WINDOWS windows, and
+    # solved again; the result is a true static packing, the retry counted
+    from forcespace.engine import protocol
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
+    fresh = build_packing(scene, show_progress=False)
+    assert fresh.meta["static_retries"] == 0
+    real, residuals = protocol.static_solve, []
+
+    def fails_once(*args, **kw):
+        packing, stats = real(*args, **kw)
+        residuals.append(stats["static_residual"])
+        return packing, (dict(stats, static_residual=1.0) if len(residuals) == 1 else stats)
+
+    monkeypatch.setattr(protocol, "static_solve", fails_once)
+    p = build_packing(scene, show_progress=False)
+    assert len(residuals) == 2 and p.meta["static_retries"] == 1
+    window = scene["jamming.window"]
+    assert p.meta["steps"] >= fresh.meta["steps"] + protocol.UNSETTLE_WINDOWS * window
+    assert p.meta["steps"] == len(p.solver_log) * window     # one log row per window
+    assert p.equilibrium_residual() <= scene["jamming.static_tolerance"]
+
+
+def test_a_static_solve_that_keeps_failing_is_refused_after_the_retries():
+    from forcespace.engine.protocol import STATIC_RETRIES
+    from forcespace.errors import NumericalError
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14,     # nothing meets it
+                                                "jamming.static_tolerance": 1e-300,
+                                                "jamming.static_max_sweeps": 1000})
+    with pytest.raises(NumericalError, match=f"also after {STATIC_RETRIES} further "
+                                             "compressions"):
+        build_packing(scene, show_progress=False)
+
+
+def test_the_suspended_rest_test_survives_a_checkpoint(tmp_path):
+    import h5py
+    from forcespace.engine import compress as C
+    from forcespace.engine.protocol import start_bodies
+    from forcespace.io.checkpoint import write_checkpoint
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
+    bodies = start_bodies(scene)
+    run = C.Run(steps=400, phase="jammed")
+    C.unsettle(scene, run, 10)
+    assert run.phase == "compressing" and run.rest_after == 400 + 10 * scene["jamming.window"]
+    ck = tmp_path / "c.h5"
+    write_checkpoint(ck, C.scene_identity(scene), C.snapshot(bodies, run))
+    back = C.start_run(scene, start_bodies(scene), ck)
+    assert (back.phase, back.steps, back.rest_after) == ("compressing", 400, run.rest_after)
+    with h5py.File(ck, "a") as f:                  # written before the field existed
+        del f.attrs["rest_after"]
+    assert C.start_run(scene, start_bodies(scene), ck).rest_after == 0
+
+
 @pytest.mark.parametrize("content", [b"garbage, not HDF5", b""])
 def test_a_garbage_checkpoint_is_one_line_naming_the_file(tmp_path, capsys, content):
     from forcespace.cli import main

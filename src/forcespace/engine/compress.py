@@ -42,7 +42,9 @@ class Run:
     steps: steps done; log: one row per window (step, v_mean, v_max [R/T], sweeps per
     step, largest final relative force change); stats: totals over all steps;
     contacts: the last step's contacts; v_ref: the largest window mean speed so far
-    [R/T] (the progress measure's origin); phase: "compressing" or "jammed".
+    [R/T] (the progress measure's origin); phase: "compressing" or "jammed";
+    rest_after: the rest criterion is not tested before this many steps (set when a
+    jammed run is unsettled again, see :func:`compress`).
     """
 
     steps: int = 0
@@ -51,6 +53,7 @@ class Run:
     contacts: ContactForces = field(default_factory=ContactForces.empty)
     v_ref: float = float("nan")
     phase: str = "compressing"
+    rest_after: int = 0
 
 
 def scene_identity(scene: Scene) -> str:
@@ -64,7 +67,7 @@ def snapshot(bodies: Bodies, run: Run) -> dict:
     state.update(keys=run.contacts.keys.copy(), rn=run.contacts.rn.copy(),
                  rt=run.contacts.rt.copy(), log=np.array(run.log, float).reshape(-1, 5),
                  steps=run.steps, phase=run.phase, v_first=run.v_ref,
-                 stats=run.stats._asdict())
+                 rest_after=run.rest_after, stats=run.stats._asdict())
     return state
 
 
@@ -87,7 +90,8 @@ def restore(path, scene: Scene, bodies: Bodies) -> Run | None:
     return Run(steps=state["steps"], log=[tuple(row) for row in state["log"]], stats=stats,
                contacts=ContactForces(state["keys"].astype(np.int64), state["rn"],
                                       state["rt"]),
-               v_ref=state["v_first"], phase=state["phase"])
+               v_ref=state["v_first"], phase=state["phase"],
+               rest_after=state.get("rest_after", 0))
 
 
 class JamProgress:
@@ -150,8 +154,24 @@ def run_window(scene: Scene, bodies: Bodies, run: Run, seed: int, settings, chun
     return total
 
 
+def start_run(scene: Scene, bodies: Bodies, checkpoint=None) -> Run:
+    """The run a compression starts from: the one saved in ``checkpoint`` (bodies
+    restored in place) or a fresh one."""
+    run = restore(checkpoint, scene, bodies) if checkpoint else None
+    return run or Run()
+
+
+def unsettle(scene: Scene, run: Run, windows: int) -> None:
+    """Send a jammed run back to compressing, the rest criterion not tested for the
+    next ``windows`` windows (in place): for a rest state whose static solve failed,
+    i.e. a configuration that only looked at rest (a slow creep paused for a window)."""
+    run.phase = "compressing"
+    run.rest_after = run.steps + windows * scene["jamming.window"]
+
+
 def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=None,
-             checkpoint=None, interrupt: InterruptFlag | None = None) -> dict:
+             checkpoint=None, interrupt: InterruptFlag | None = None,
+             run: Run | None = None) -> dict:
     """Run contact dynamics until jammed (in place). Returns solver statistics.
 
     Overlaps left by truncated sweeps beyond ``solver.overlap_slop`` are
@@ -163,7 +183,8 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
     jammed (phase "jammed"), at ``jamming.max_steps`` and on an interrupt, and resumed
     from if it exists (bit-identical to an uninterrupted run); the caller removes it
     once the packing is done. ``log`` (a list) receives one row per window.
-    ``interrupt``: see :mod:`forcespace.engine.interrupts`.
+    ``interrupt``: see :mod:`forcespace.engine.interrupts`. ``run``: continue this run
+    (from :func:`start_run`, possibly :func:`unsettle`-d) instead of starting one.
 
     Raises NumericalError if the state becomes non-finite or max_steps is reached,
     Interrupted on a requested interrupt.
@@ -171,8 +192,7 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
     interrupt = interrupt or InterruptFlag()
     v0 = velocity_scale(scene, bodies)
     v_tol = scene["jamming.velocity_tol"] * v0
-    run = restore(checkpoint, scene, bodies) if checkpoint else None
-    run = run or Run()
+    run = run if run is not None else start_run(scene, bodies, checkpoint)
     settings = (scene_box(scene), *step_settings(scene, v0))
     t0 = time.perf_counter()
     bar = JamProgress(v_tol, show_progress, run, scene["jamming.max_steps"])
@@ -219,7 +239,8 @@ def _windows(scene, bodies, run: Run, seed, settings, v_tol, bar, checkpoint, in
         run.v_ref = v_mean if not v_mean <= run.v_ref else run.v_ref
         run.log.append((run.steps, v_mean, st.max_speed, st.sweeps_total / window,
                         st.max_rel_change))
-        if v_mean <= v_tol and load_carried(scene, bodies, run.contacts):
+        if (run.steps >= run.rest_after and v_mean <= v_tol
+                and load_carried(scene, bodies, run.contacts)):
             run.phase = "jammed"
             save(snapshot(bodies, run))
         elif checkpoint and time.perf_counter() - last_save > CHECKPOINT_SECONDS:

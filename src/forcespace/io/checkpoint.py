@@ -41,13 +41,16 @@ def write_checkpoint(path, scene: str, state: dict) -> None:
 
     ``scene``: the identity string of the scene the state belongs to; ``state``: the
     arrays of BODY_FIELDS and CONTACT_FIELDS, ``log`` (k, 5), and scalars ``steps``,
-    ``phase`` (str), ``v_first`` and ``stats`` (a dict of named numbers).
+    ``phase`` (str), ``v_first``, ``rest_after`` (the step before which the rest
+    criterion is not tested; 0 when absent, as in files written before it existed) and
+    ``stats`` (a dict of named numbers).
     """
     with atomic_h5(path, {"file_kind": KIND}) as f:
         f.attrs["scene"] = scene
         f.attrs["steps"] = int(state["steps"])
         f.attrs["phase"] = str(state["phase"])
         f.attrs["v_first"] = float(state["v_first"])
+        f.attrs["rest_after"] = int(state.get("rest_after", 0))
         for k, v in state["stats"].items():
             f.attrs[f"stats.{k}"] = v
         g = f.create_group("bodies")
@@ -80,6 +83,7 @@ def read_checkpoint(path, scene: str) -> dict | None:
             out["steps"] = int(f.attrs["steps"])
             out["phase"] = str(f.attrs["phase"])
             out["v_first"] = float(f.attrs["v_first"])
+            out["rest_after"] = int(f.attrs.get("rest_after", 0))
             out["stats"] = {k[6:]: f.attrs[k].item() for k in f.attrs if k.startswith("stats.")}
         except (KeyError, ValueError, TypeError, OSError) as exc:
             raise InputError(path, "(checkpoint)", f"is incomplete or corrupt ({exc}); delete "
