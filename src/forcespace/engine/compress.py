@@ -44,7 +44,7 @@ class Run:
     contacts: the last step's contacts; v_ref: the largest window mean speed so far
     [R/T] (the progress measure's origin); phase: "compressing" or "jammed";
     rest_after: the rest criterion is not tested before this many steps (set when a
-    jammed run is unsettled again, see :func:`compress`).
+    jammed run is sent back to compressing, see :func:`unsettle`).
     """
 
     steps: int = 0
