@@ -85,3 +85,37 @@ def test_hit_and_run_mixes_on_a_17_dimensional_S(tmp_path):
     assert res["rhat_sqdev"] < 1.1 and res["rhat_projections_max"] < 1.1
     assert res["ess_projections_min"] > 50
     assert read_file(tmp_path / "h.h5").setup["mve_axis_ratio"][-1] < 6
+
+
+@pytest.mark.parametrize("name,height", [("paper_mu1_seed2.h5", 28.0),
+                                         ("paper_mu10_seed3.h5", 28.0)])
+def test_varying_contacts_by_few_lps_match_the_full_range_table(name, height, monkeypatch):
+    # the varying mask decided with LPs only where no known point of S already shows a
+    # spread above VARY_TOL must equal the one from min and max of every force; the
+    # widths returned are exact where the contact's own LPs ran, lower bounds above the
+    # tolerance elsewhere
+    from forcespace.io.packing_file import read_packing
+    from forcespace.space import force_space as F
+    from forcespace.space.lp import unit_problem
+    from paths import DATA
+    prob = slice_problem(read_packing(DATA / name), height)
+    full = ForceSpace(ranges=True).compute(prob)
+    calls = []
+    real = F.solve_lp
+    monkeypatch.setattr(F, "solve_lp", lambda *a, **k: calls.append(1) or real(*a, **k))
+    fast = ForceSpace().compute(prob)
+    assert fast.success and full.success
+    np.testing.assert_array_equal(fast.varying, full.varying)
+    P, s = unit_problem(prob)
+    every = np.arange(P.n_contacts)
+    exact = np.maximum(np.ptp(full.fn_range, axis=1), np.ptp(full.ft_range, axis=1)) / s
+    calls.clear()
+    w = F._lp_widths(P, every, config.VARY_TOL, points=(full.centre / s,))
+    assert len(calls) < 4 * P.n_contacts              # fewer than the full table
+    ran = w <= config.VARY_TOL
+    # a trusted point misses S by <= TRUSTED_POINT * VARY_TOL and moved constant contacts
+    # by about as much (1.06e-8 at mu = 10): widths agree to 10x that, decisions exactly
+    slack = 10 * F.TRUSTED_POINT * config.VARY_TOL
+    np.testing.assert_allclose(w[ran], exact[ran], atol=slack)
+    assert np.all(exact[~ran] >= w[~ran] - slack) and np.all(w[~ran] > config.VARY_TOL)
+    np.testing.assert_array_equal(w > config.VARY_TOL, exact > config.VARY_TOL)
