@@ -6,7 +6,9 @@ the indeterminacy percolates (small mu) overlapping clusters feed each other
 fluctuating boundary forces and eta grows with the system -- seen up to 500
 disks, "not clear what happens in the thermodynamic limit". This study asks it of
 the uniform measure on S (a hypothesis: eta grows with n at mu = 0.01 and 0.1, and is
-size-independent at mu = 1), judged by the report's rules (report.RULES).
+size-independent at mu = 1), judged by the report's rules (report.RULES); where it
+grows, a power law against a saturating law (:func:`compare_models`) says whether it
+grows without bound, the paper's question about the thermodynamic limit.
 
 Tasks: one per (n, mu, seed), seed-major (every size and mu of seed 1, then of seed 2,
 ...), so an interrupted run holds complete seed rounds. The box keeps the paper's
@@ -648,7 +650,31 @@ def _verdicts(rows, fits, mus):
                           "(converged packings with eta > 0) above 0" if want == "grows"
                           else f"the 95 % t-interval of the slope inside ±{FLAT:g}")
                     + "; not decidable otherwise (what would decide it is stated)"))
+                if want == "grows" and "power" in f["models"]:
+                    verdicts.append(_limit_verdict(mu, scope, k, f["models"]))
     return numbers, verdicts
+
+
+LIMIT_VERDICT = {"power": "supported", "saturating": "not supported",
+                 "both fit": "not decidable"}
+
+
+def _limit_verdict(mu, scope, k, models):
+    """The paper's "not clear what happens in the thermodynamic limit", asked of the
+    model comparison (:func:`compare_models`): does eta grow without bound (power law) or
+    level off (saturating law)?"""
+    from .report import Verdict
+
+    where = "" if scope == "slice" else " (fixed interior window: bulk)"
+    s = models["saturating"]
+    return Verdict(
+        "size", f"hypothesis: eta grows without bound as n -> infinity (power law, not "
+        f"saturation) at mu = {mu:g}{where}",
+        _models_text(models) + (f"; eta levels off at eta_inf = {s['eta_inf']:.3g}"
+                                if models["preferred"] == "saturating" else ""),
+        LIMIT_VERDICT[models["preferred"]], sampler=k, kind="hypothesis",
+        rule=f"AIC(power) - AIC(saturating eta_inf (1 - c n^-1/2)) below -{AIC_MARGIN:g} "
+             f"supports, above +{AIC_MARGIN:g} does not; not decidable in between")
 
 
 def _caps(params) -> str:
@@ -739,7 +765,9 @@ def _text(rows, fits, mus) -> str:
         f"comparison, per mu: the power law log eta = a + b log n against the saturating "
         f"law eta = eta_inf (1 - c n^(-1/2)), both two-parameter least squares on log eta, "
         f"compared by AIC = N ln(RSS / N) + 2k; a difference > {AIC_MARGIN:g} favours the "
-        f"lower, otherwise both fit.\n\n"
+        f"lower, otherwise both fit. It answers the paper's \"not clear what happens in "
+        f"the thermodynamic limit\" where eta grows: a favoured power law supports growth "
+        f"without bound, a favoured saturating law says eta levels off at eta_inf.\n\n"
         f"{models or '- no model comparison yet (it needs 4 packings at 3 sizes)'}\n\n"
         f"rho (elementary clusters per slice disk, a greedy circuit basis: a lower bound) is "
         f"computed where dim S <= {params.get('clusters_max_dim', '?')} only; percolating: "

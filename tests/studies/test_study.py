@@ -387,10 +387,21 @@ def test_size_quick_scaled_boxes_and_indeterminacy_bookkeeping(tmp_path, capsys)
     doc = json.loads((out / "verdicts.json").read_text())
     assert doc["rules_version"] == RULES_VERSION
     # one verdict per uniform sampler and scope (whole slice, fixed window) at 3 sizes
-    verdicts = doc["verdicts"]
+    verdicts = [v for v in doc["verdicts"] if "without bound" not in v["claim"]]
     assert sorted((v["sampler"], "window" in v["claim"]) for v in verdicts) == [
         ("billiard", False), ("billiard", True), ("hit_and_run", False),
         ("hit_and_run", True)]
+    # the thermodynamic limit: one verdict per fit that has a model comparison, decided
+    # by it (power law favoured: unbounded growth supported; saturating: not supported)
+    limits = [v for v in doc["verdicts"] if "without bound" in v["claim"]]
+    slopes = doc["numbers"]["eta_slopes"]
+    compared = {key: f["models"] for key, f in slopes.items() if "power" in f["models"]}
+    assert limits and len(limits) == len(compared)
+    for v in limits:
+        scope = "window" if "window" in v["claim"] else "slice"
+        m = compared[f"{v['sampler']}/{scope}/mu0.1"]
+        assert v["quick_outcome"] == size.LIMIT_VERDICT[m["preferred"]]
+        assert f"{m['aic_power_minus_saturating']:.2f}" in v["ours"]
     for v in verdicts:
         assert v["claim"].startswith("hypothesis: eta grows with n")
         assert v["kind"] == "hypothesis" and v["quick_outcome"] in (
