@@ -9,7 +9,7 @@ from forcespace.io.ensemble_file import read_ensemble, read_file
 from forcespace.sampling.hit_and_run import HitAndRun
 from forcespace.sampling.relax_walk import RelaxWalk
 from forcespace.measures import eta
-from forcespace.space.projection import _polish, distance_to_S
+from forcespace.space.projection import Projector, _polish, distance_to_S
 from forcespace.space.force_space import ForceSpace
 from forcespace.sampling.rounding import mve
 from forcespace.model.problem import full_problem, plate_problem, slice_problem
@@ -43,6 +43,29 @@ def test_projection_on_the_plate_balance_problem(quick_packing, pert):
     # no farther than the jammed network (which is in S up to round-off)
     bound = np.linalg.norm(x - prob.x_jammed) / (prob.force_scale * np.sqrt(prob.n_contacts))
     assert d.relative <= bound + 1e-8
+
+
+def test_one_projector_gives_every_point_its_own_verified_projection():
+    # the relax walk projects all stalled samples of a slice with one Projector: its
+    # frame, computed once, must carry nothing from one point to the next (the same bits
+    # as a fresh projection, in another order), and each answer is the projection: in S,
+    # no farther than the Chebyshev centre (a point of S), the centre itself fixed
+    from forcespace.io.packing_file import read_packing
+    from paths import DATA
+    prob = slice_problem(read_packing(DATA / "paper_mu10_seed3.h5"), 28.0)    # dim S 3
+    an = ForceSpace().compute(prob)
+    rng = np.random.default_rng(3)
+    xs = [an.centre + a * prob.force_scale * rng.uniform(-1, 1, prob.n_columns)
+          for a in (0.3, 0.0, 3.0)]
+    proj = Projector(prob)
+    mine = [proj(x) for x in xs]
+    fresh = [distance_to_S(prob, x) for x in reversed(xs)][::-1]
+    for x, a, b in zip(xs, mine, fresh):
+        np.testing.assert_array_equal(a.nearest, b.nearest)
+        assert a.max_violation <= 1e-9 and a.kkt_residual <= 1e-9
+        assert a.absolute <= np.linalg.norm(x - an.centre) + 1e-9 * prob.force_scale
+    assert 0 < mine[0].absolute < mine[2].absolute
+    np.testing.assert_allclose(mine[1].nearest, an.centre, atol=1e-9 * prob.force_scale)
 
 
 def test_frictionless_jammed_packing_is_determinate(quick_packing, tmp_path):

@@ -20,10 +20,10 @@ kick the Gauss-Seidel iteration can settle on forces under which some bodies
 keep sliding (a fixed point of the sweep that is not in S), most often at
 large mu. Such a relaxation (no 1 % progress in ``stall_sweeps`` sweeps, or
 ``max_sweeps`` reached) is finished by the exact Euclidean projection of its
-forces onto S (:func:`forcespace.polytope.distance_to_S`, KKT-verified): the
+forces onto S (:func:`forcespace.space.projection.distance_to_S`, KKT-verified): the
 admissible network nearest to where the walk got stuck; where that projection
 cannot be verified (ill-conditioned slices at large mu), by the network of S
-nearest in the L1 norm (one LP, :func:`forcespace.polytope.l1_nearest`),
+nearest in the L1 norm (one LP, :func:`forcespace.space.projection.l1_nearest`),
 counted as ``n_projected_l1``. Every such sample is
 counted (``n_projected`` in the checkpoint attributes and the summary) and
 listed (``checkpoint/projected``: indices of the projected samples). Finished samples are written before any error propagates.
@@ -45,7 +45,7 @@ from ..engine.frozen import frozen_contacts, relax
 from ..errors import InputError, NumericalError, require_int
 from ..model.problem import StaticsProblem
 from ..space.force_space import check_bounded, check_feasible
-from ..space.projection import distance_to_S, l1_nearest
+from ..space.projection import Projector, l1_nearest
 from ..streams import chain_generators, restored_generator
 from .driver import Sampler, Stop, check_target, run_walk
 
@@ -62,6 +62,7 @@ class Relaxer:
         self.system = frozen_contacts(p)
         self.mu = self.system.mu
         self.n_l1 = 0          # stalls finished by the L1-nearest network (see relax)
+        self.projector = Projector(p)   # exact projection of stalled relaxations onto S
 
     def relax(self, x, tol=config.SAMPLE_VIOLATION, chunk=200, max_sweeps=2_000_000, seed=0,
               stall_sweeps=config.RELAX_STALL_SWEEPS):
@@ -89,7 +90,7 @@ class Relaxer:
         if res.converged:
             return out.copy(), res, False
         try:
-            nearest = distance_to_S(self.problem, out).nearest
+            nearest = self.projector(out).nearest
         except NumericalError as exc:   # unverifiable on an ill-conditioned slice: L1 by LP
             nearest = l1_nearest(self.problem, out)
             self.n_l1 += 1

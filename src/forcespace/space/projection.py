@@ -43,7 +43,38 @@ class DistanceResult:
     method: str
 
 
-def _ldp_projection(problem: StaticsProblem, xhat):
+@dataclass
+class _Frame:
+    """The problem-only linear algebra of the projection (one problem, many points).
+
+    G (k, 2m) sparse and Gd dense: the inequality rows G x <= 0; Ceq (r, 2m) dense,
+    ceq (r,): the equalities (:func:`eq_system`); xa (2m,): their least-squares
+    solution; N (2m, d): orthonormal null basis of Ceq; Q (2m, rank): orthonormal
+    basis of range(Ceq^T); M = G N, u = -G xa (the inequalities in null-space
+    coordinates y, x = xa + N y: M y <= u)."""
+
+    G: object
+    Gd: np.ndarray
+    Ceq: np.ndarray
+    ceq: np.ndarray
+    xa: np.ndarray
+    N: np.ndarray
+    Q: np.ndarray
+    M: np.ndarray
+    u: np.ndarray
+
+
+def _frame(problem: StaticsProblem) -> _Frame:
+    G, _, _ = problem.inequalities()
+    Eq, ceq = eq_system(problem)
+    Ceq = Eq.toarray()
+    xa = sla.lstsq(Ceq, ceq, lapack_driver="gelsd")[0]
+    N = null_basis(Ceq)
+    return _Frame(G=G, Gd=G.toarray(), Ceq=Ceq, ceq=ceq, xa=xa, N=N, Q=range_basis(Ceq),
+                  M=np.asarray(G @ N), u=-np.asarray(G @ xa))
+
+
+def _ldp_projection(problem: StaticsProblem, xhat, frame: _Frame | None = None):
     """Euclidean projection of xhat onto S by least-distance programming.
 
     Null-space coordinates x = xa + N y (N orthonormal basis of {A x = 0,
@@ -59,16 +90,11 @@ def _ldp_projection(problem: StaticsProblem, xhat):
     problem (:func:`_reduced_kkt`), which needs no rank decision on the
     equalities.
     """
-    G, _, _ = problem.inequalities()
-    Eq, rhs = eq_system(problem)
-    Ed = Eq.toarray()
-    xa = sla.lstsq(Ed, rhs, lapack_driver="gelsd")[0]
-    N = null_basis(Ed)
+    f = frame or _frame(problem)
+    xa, N, M, u = f.xa, f.N, f.M, f.u
     d = N.shape[1]
     if d == 0:
         return xa, np.zeros(0, dtype=np.int64), 0.0
-    M = np.asarray(G @ N)
-    u = -np.asarray(G @ xa)
     ystar = N.T @ (np.asarray(xhat, float) - xa)
     scale = max(problem.force_scale, 1e-300)
     E = -M
@@ -128,7 +154,8 @@ def _multipliers(Q, Gact, rhs):
     return lam / colscale, float(res), free / colscale
 
 
-def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 60, active=None):
+def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 60, active=None,
+            frame: _Frame | None = None):
     """Exact active-set refinement and KKT verification of an approximate projection ``x``.
 
     Start from the active set ``active`` (rows of ``problem.inequalities()``;
@@ -142,11 +169,8 @@ def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 60, active=None):
     is then the answer iff its (equality-only) residual passes. Returns
     (x, kkt_residual, ok).
     """
-    G, _, _ = problem.inequalities()
-    Gd = G.toarray()
-    Eq, ceq = eq_system(problem)
-    Ceq = Eq.toarray()
-    Q = range_basis(Ceq)
+    f = frame or _frame(problem)
+    G, Gd, Ceq, ceq, Q = f.G, f.Gd, f.Ceq, f.ceq, f.Q
     scale = problem.force_scale
     if active is None:
         act = np.flatnonzero(G @ x > -config.ACTIVE_TOL * scale)
@@ -177,15 +201,17 @@ def _polish(problem: StaticsProblem, xhat, x, max_iter: int = 60, active=None):
     return best
 
 
-def project(problem: StaticsProblem, x) -> DistanceResult:
+def project(problem: StaticsProblem, x, frame: _Frame | None = None) -> DistanceResult:
     """The verified Euclidean projection of x (2m,) onto S of ``problem``, computed in
     the problem's own units (:func:`distance_to_S` calls it at <Fn> = 1; a caller that
-    has already scaled its problem, as the selection's weighted one, calls it directly)."""
-    xq, active, kkt_q = _ldp_projection(problem, x)
+    has already scaled its problem, as the selection's weighted one, calls it directly).
+    ``frame``: the problem's :func:`_frame`, when it projects many points."""
+    frame = frame or _frame(problem)
+    xq, active, kkt_q = _ldp_projection(problem, x, frame)
     method = "null-space LDP (Lawson-Hanson NNLS) + verified active-set polish"
-    xn, kkt, ok = _polish(problem, x, xq, active=active)
+    xn, kkt, ok = _polish(problem, x, xq, active=active, frame=frame)
     if not ok:       # retry from the rows tight at the LDP point
-        xn2, kkt2, ok2 = _polish(problem, x, xq)
+        xn2, kkt2, ok2 = _polish(problem, x, xq, frame=frame)
         if ok2 or kkt2 < kkt:
             xn, kkt, ok = xn2, kkt2, ok2
     if not ok and kkt_q <= config.KKT_TOL and problem.violation(xq) <= config.SAMPLE_VIOLATION:
@@ -212,15 +238,37 @@ def distance_to_S(problem: StaticsProblem, x) -> DistanceResult:
     exact active-set polish whose KKT conditions are verified (feasibility to
     round-off, multipliers >= 0, stationarity residual <= 1e-9). Raises
     NumericalError if the verification fails, InputError for a wrong-shaped or
-    non-finite x, and refuses an infeasible S.
+    non-finite x, and refuses an infeasible S. Many points of one problem:
+    :class:`Projector`.
     """
-    x = np.asarray(x, float)
-    if x.shape != (problem.n_columns,) or not np.all(np.isfinite(x)):
-        raise InputError("distance_to_S", "x", f"must be a finite vector of shape "
-                         f"({problem.n_columns},)", got=getattr(x, "shape", None))
-    P, s = unit_problem(problem)
-    r = project(P, x / s)
-    return dataclasses.replace(r, absolute=r.absolute * s, nearest=r.nearest * s)
+    return Projector(problem)(x)
+
+
+class Projector:
+    """:func:`distance_to_S` for many points of one problem: ``Projector(problem)(x)``.
+
+    The problem-only linear algebra (the equalities' particular solution, null and
+    range bases: two SVDs of the 2m-column equality matrix) is done once, at the first
+    call, instead of once per point; the results are those of :func:`distance_to_S`
+    bit for bit. The relax walk projects every stalled sample of a slice with one.
+    """
+
+    def __init__(self, problem: StaticsProblem):
+        self.problem = problem
+        self._unit, self._scale = unit_problem(problem)
+        self._frame: _Frame | None = None
+
+    def __call__(self, x) -> DistanceResult:
+        problem = self.problem
+        x = np.asarray(x, float)
+        if x.shape != (problem.n_columns,) or not np.all(np.isfinite(x)):
+            raise InputError("distance_to_S", "x", f"must be a finite vector of shape "
+                             f"({problem.n_columns},)", got=getattr(x, "shape", None))
+        if self._frame is None:
+            self._frame = _frame(self._unit)
+        s = self._scale
+        r = project(self._unit, x / s, self._frame)
+        return dataclasses.replace(r, absolute=r.absolute * s, nearest=r.nearest * s)
 
 
 def l1_nearest(problem: StaticsProblem, x) -> np.ndarray:
