@@ -50,10 +50,13 @@ def config(quick: bool) -> dict:
 
 
 def tasks(quick: bool = False) -> list[Task]:
+    """One task per fig1 packing (mu, seed), seed-major as fig1's: an interrupted run
+    leaves complete seed rounds across mu, and a run beside an unfinished fig1 finds the
+    packings of its first seeds there."""
     cfg = config(quick)
     common = dict(scene=cfg["scene"], n_disks=cfg["n_disks"], slice_height=cfg["slice_height"])
     return [Task(f"mu{mu:.3g}_s{seed}", "forcespace_studies.fig2:packing_task",
-                 dict(common, mu=mu, seed=seed)) for mu in cfg["mus"] for seed in cfg["seeds"]]
+                 dict(common, mu=mu, seed=seed)) for seed in cfg["seeds"] for mu in cfg["mus"]]
 
 
 def other_loads(packing, seed: int):

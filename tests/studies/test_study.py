@@ -98,6 +98,20 @@ def test_fig1_full_plan_is_seed_major_and_complete():
         (ms, s) for ms in (0.0, *fig1.MUS) for s in range(1, 6)}
 
 
+def test_fig2_full_plan_follows_fig1_packings_seed_major():
+    # one task per own-mu fig1 packing, none twice, in fig1's seed order: a fig2 run
+    # stopped (or run beside an unfinished fig1) holds complete seed rounds
+    from forcespace_studies import fig2
+    full = fig2.tasks()
+    assert len({t.name for t in full}) == len(full) == 20 * 10
+    seeds = [t.params["seed"] for t in full]
+    assert seeds == sorted(seeds)
+    mine = [(t.params["mu"], t.params["seed"]) for t in full]
+    theirs = [(t.params["mu"], t.params["seed"]) for t in fig1.tasks()
+              if t.params.get("mu_sample") is None]
+    assert mine == theirs
+
+
 def test_a_failing_task_is_a_result_and_names_must_be_unique(tmp_path):
     bad = Task("bad", "forcespace_studies.fig1:packing_task",
                dict(scene="quick", n_disks=0, slice_height=10.0, cap=2, mu=0.1, seed=1))
