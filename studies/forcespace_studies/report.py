@@ -277,10 +277,24 @@ def write_section(out, name: str, title: str, text: str, verdicts: list[Verdict]
            "verdicts": _quick_verdicts([asdict(v) for v in verdicts], quick),
            "numbers": numbers, "figures": figures, "code_version": code_version(),
            "rules_version": rules_version,
-           "parameters": info.get("config"), "worker_seconds": _study_seconds(out)}
+           "parameters": info.get("config"), "worker_seconds": _study_seconds(out),
+           "tasks_done": len(list((out / "tasks").glob("*.json"))),
+           "tasks_planned": info.get("tasks")}
     with atomic_path(out / "verdicts.json") as tmp, open(tmp, "w") as fh:
         json.dump(jsonable(doc), fh, indent=1, allow_nan=False)
     return write_report([out], report)
+
+
+def _tasks_text(doc: dict) -> str:
+    """ "K of N planned tasks (a partial run); " for a study that has not run its whole
+    plan, "N tasks; " for one that has, "" where the counts predate them."""
+    done, planned = doc.get("tasks_done"), doc.get("tasks_planned")
+    if done is None or not planned:
+        return ""
+    if done < planned:
+        return (f"{done} of {planned} planned tasks: a partial run, resumed by the same "
+                "command; ")
+    return f"{done} tasks; "
 
 
 def _study_seconds(study_dir: Path) -> float:
@@ -364,7 +378,8 @@ def write_report(study_dirs, path) -> Path:
         kind = " (quick run: a smoke test)" if d.get("quick") else ""
         lines += [f"## {d['title']}{kind}", "",
                   f"Directory `{d['dir']}/` (code {d.get('code_version', '?')}; "
-                  f"{float(d['worker_seconds']) / 60:.0f} worker-minutes of tasks).", "",
+                  f"{_tasks_text(d)}{float(d['worker_seconds']) / 60:.0f} worker-minutes "
+                  "of tasks).", "",
                   d.get("text", ""), ""]
         for fig in d.get("figures", []):
             lines += [f"![{fig}]({prefix}{fig}) (PDF: `{prefix}"

@@ -185,6 +185,25 @@ def test_fig3_quick_distances_boundary_and_uniformity(tmp_path, capsys):
         assert remote[key] == pytest.approx(local[key], rel=1e-5)
 
 
+def test_report_says_how_much_of_the_plan_a_study_has_run(tmp_path):
+    # a partial run (a long study stopped and committed) reads as one in every report
+    from forcespace_studies.report import write_report, write_section
+    out = tmp_path / "fig1"
+    (out / "tasks").mkdir(parents=True)
+    (out / "study.json").write_text(json.dumps({"study": "fig1", "quick": False,
+                                                "tasks": 3}))
+    (out / "tasks" / "a.json").write_text(json.dumps({"wall_seconds": 120.0}))
+    write_section(out, "fig1", "T", "text", [], {}, [])
+    assert "1 of 3 planned tasks: a partial run" in (out / "REPORT.md").read_text()
+    for t in ("b", "c"):
+        (out / "tasks" / f"{t}.json").write_text(json.dumps({"wall_seconds": 60.0}))
+    write_section(out, "fig1", "T", "text", [], {}, [])
+    write_report([out], tmp_path / "REPORT.md")
+    for rep in (out / "REPORT.md", tmp_path / "REPORT.md"):
+        text = rep.read_text()
+        assert "3 tasks; 4 worker-minutes" in text and "partial" not in text
+
+
 def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
     from forcespace_studies.report import RULES_VERSION, Verdict, write_report, write_section
     with pytest.raises(ValueError, match="verdict"):
