@@ -458,11 +458,14 @@ def summarize(results: list[dict], out) -> dict:
         text += ("\n\nRun last, after every seed round of the others: " + ", ".join(
             f"n = {n}, mu = {mu:g}" for n, mu in last) + " (the jams at mu = 1 and n >= "
             "2000 creep: the rest criterion asks that no load-bearing disk moves more than "
-            "jamming.velocity_tol over a window, a maximum over all disks, and at mu = 1 "
-            "some disk of a 2000-disk packing slips now and then: seed 1 ran 83 600 steps "
-            "(about 30 CPU-min) with the largest window speed between 1e-7 and 1e-4 R/T, "
-            "never below the tolerance 5.6e-8, and would need up to 400 000 steps, ~2.4 "
-            "CPU-h per packing; they resume from their compression checkpoints).")
+            "jamming.velocity_tol over a window, a maximum over all disks; seed 1 ran "
+            "83 600 steps (about 30 CPU-min) without meeting it (tolerance 2.5e-8 R/T for "
+            "that box). Twelve windows resumed from its checkpoint: in 9 the top layer under "
+            "the plate leads (the same disks at y ~ 134-136 R, 2.6-62 x the tolerance, 22-296 "
+            "disks above it: slow compaction), in 3 a disk with a single force-bearing "
+            "contact in a passing collision (317-4 364 x); jamming.max_steps allows 400 000 "
+            "steps, ~2.4 CPU-h per packing; they resume from their compression "
+            "checkpoints).")
     if rows:
         text += ("\n\nPackings per (mu, n) and what entered the fits (converged runs with eta "
                  "> 0; determinate ones counted after the +; mean eta over the former with "
