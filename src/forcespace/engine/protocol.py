@@ -64,7 +64,6 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
     seed = scene["scene.seed"]
     bodies = start_bodies(scene)
     t0 = time.perf_counter()
-    log = []
     tol = scene["jamming.static_tolerance"]
     with deferred_sigint() as interrupt:
         run = start_run(scene, bodies, checkpoint)
@@ -79,8 +78,7 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
                             interrupt=interrupt, run=run)
             seconds += meta["compress_seconds"]
             packing, static = static_solve(scene, bodies, seed, show_progress, interrupt)
-    log.extend(run.log)
-    packing.solver_log = np.array(log, dtype=float).reshape(-1, 5)
+    packing.solver_log = np.array(run.log, dtype=float).reshape(-1, 5)
     meta.update(static, compress_seconds=seconds, static_retries=retries)
     meta["wall_seconds"] = time.perf_counter() - t0
     meta["rotation"] = bool(scene.rotation)

@@ -246,22 +246,31 @@ def _lp_widths(problem: StaticsProblem, contacts, tol: float, points=()) -> np.n
             for sgn in (1.0, -1.0):
                 if unbounded or spread(j) > tol:
                     break
-                c = np.zeros(m2)
-                c[col] = sgn
-                res = solve_lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, bnds,
-                               known_feasible=True)
-                if res.status == 3:      # unbounded in this direction
+                value, x = _column_extreme(problem, G, bnds, col, sgn)
+                if x is None:            # unbounded in this direction
                     unbounded = True
                     break
-                if res.status != 0:
-                    raise NumericalError(f"range LP for column {col} failed: {res.message}")
                 # the optimum of its own column counts as in the full table; the
                 # rest of the point only if it is trusted
-                seen_lo[col], seen_hi[col] = min(seen_lo[col], res.x[col]), max(seen_hi[col],
-                                                                                res.x[col])
-                see(res.x)
+                seen_lo[col], seen_hi[col] = min(seen_lo[col], value), max(seen_hi[col], value)
+                see(x)
         width[k] = np.inf if unbounded else spread(j)
     return width
+
+
+def _column_extreme(problem: StaticsProblem, G, bnds, col: int, sgn: float):
+    """min (sgn = 1) or max (sgn = -1) of column ``col`` over S by one LP: (value, x (2m,)
+    the optimum), or (-sgn inf, None) where S is unbounded that way. ``G``, ``bnds``: the
+    problem's inequalities and bounds_list. NumericalError if the LP fails."""
+    c = np.zeros(problem.n_columns)
+    c[col] = sgn
+    res = solve_lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, bnds,
+                   known_feasible=True)
+    if res.status == 3:
+        return -sgn * np.inf, None
+    if res.status != 0:
+        raise NumericalError(f"range LP for column {col} failed: {res.message}")
+    return res.x[col], res.x
 
 
 def _column_ranges(problem: StaticsProblem, N=None, xa=None, columns=None):
@@ -286,16 +295,7 @@ def _column_ranges(problem: StaticsProblem, N=None, xa=None, columns=None):
             rng[col] = lo[col]
             continue
         for side, sgn in ((0, 1.0), (1, -1.0)):
-            c = np.zeros(m2)
-            c[col] = sgn
-            res = solve_lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, bnds,
-                           known_feasible=True)
-            if res.status == 3:          # unbounded in this direction
-                rng[col, side] = -sgn * np.inf
-                continue
-            if res.status != 0:
-                raise NumericalError(f"range LP for column {col} failed: {res.message}")
-            rng[col, side] = res.x[col]
+            rng[col, side] = _column_extreme(problem, G, bnds, col, sgn)[0]
     if columns is not None:
         return rng
     return rng[0::2].copy(), rng[1::2].copy()

@@ -74,7 +74,7 @@ def _frame(problem: StaticsProblem) -> _Frame:
                   M=np.asarray(G @ N), u=-np.asarray(G @ xa))
 
 
-def _ldp_projection(problem: StaticsProblem, xhat, frame: _Frame | None = None):
+def _ldp_projection(problem: StaticsProblem, xhat, frame: _Frame):
     """Euclidean projection of xhat onto S by least-distance programming.
 
     Null-space coordinates x = xa + N y (N orthonormal basis of {A x = 0,
@@ -90,8 +90,7 @@ def _ldp_projection(problem: StaticsProblem, xhat, frame: _Frame | None = None):
     problem (:func:`_reduced_kkt`), which needs no rank decision on the
     equalities.
     """
-    f = frame or _frame(problem)
-    xa, N, M, u = f.xa, f.N, f.M, f.u
+    xa, N, M, u = frame.xa, frame.N, frame.M, frame.u
     d = N.shape[1]
     if d == 0:
         return xa, np.zeros(0, dtype=np.int64), 0.0
