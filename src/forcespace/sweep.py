@@ -199,7 +199,7 @@ def execute(task: Task, out: str) -> dict:
         wd = task.workdir(out)
         wd.mkdir(parents=True, exist_ok=True)
         result = {"task": task.name, "params": task.params, "ok": True, **_provenance(task)}
-        t0 = time.perf_counter()
+        t0, cpu0 = time.perf_counter(), _cpu_seconds()
         try:
             with one_blas_thread():
                 fn = getattr(importlib.import_module(module), name)
@@ -210,8 +210,23 @@ def execute(task: Task, out: str) -> dict:
             result.update(ok=False, error=f"{type(exc).__name__}: {exc} (a bug: traceback "
                           "in this file)", traceback=traceback.format_exc())
         result["wall_seconds"] = time.perf_counter() - t0
+        result["cpu_seconds"] = _cpu_seconds() - cpu0
         write_json(task.result_path(out), result)
         return result
+
+
+def _cpu_seconds() -> float:
+    """CPU seconds (user + sys) of the calling thread and of the programs it has waited
+    for (LIGGGHTS runs): a task's own CPU time, whatever else shares the machine. Every
+    kernel, LP and BLAS call of a task runs in its thread (one BLAS thread, HiGHS with
+    threads = 1). In a Dask worker with several threads, programs another thread ran
+    count too (only the selection study runs any)."""
+    try:
+        import resource
+    except ImportError:                  # not on POSIX: the thread's own time only
+        return time.thread_time()
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.thread_time() + kids.ru_utime + kids.ru_stime
 
 
 # ---------------------------------------------------------------- the study directory

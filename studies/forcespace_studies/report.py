@@ -277,7 +277,7 @@ def write_section(out, name: str, title: str, text: str, verdicts: list[Verdict]
            "verdicts": _quick_verdicts([asdict(v) for v in verdicts], quick),
            "numbers": numbers, "figures": figures, "code_version": code_version(),
            "rules_version": rules_version,
-           "parameters": info.get("config"), "worker_seconds": _study_seconds(out),
+           "parameters": info.get("config"), **_study_seconds(out),
            "tasks_done": len(list((out / "tasks").glob("*.json"))),
            "tasks_planned": info.get("tasks")}
     with atomic_path(out / "verdicts.json") as tmp, open(tmp, "w") as fh:
@@ -297,8 +297,12 @@ def _tasks_text(doc: dict) -> str:
     return f"{done} tasks; "
 
 
-def _study_seconds(study_dir: Path) -> float:
-    total = 0.0
+def _study_seconds(study_dir: Path) -> dict:
+    """Time of the study's tasks: {"worker_seconds": sum of their wall times,
+    "cpu_seconds": sum of their CPU times, "cpu_tasks": how many recorded one} (task files
+    written before the CPU time was recorded have only the wall time)."""
+    wall = cpu = 0.0
+    cpu_tasks = 0
     for f in sorted((Path(study_dir) / "tasks").glob("*.json")):
         try:
             doc = json.loads(f.read_text(encoding="utf-8"))
@@ -306,8 +310,22 @@ def _study_seconds(study_dir: Path) -> float:
             raise InputError(f, "(task result)", "is not readable JSON; delete it to run "
                              "the task again") from None
         if isinstance(doc, dict):
-            total += float(doc.get("wall_seconds") or 0.0)
-    return total
+            wall += float(doc.get("wall_seconds") or 0.0)
+            if doc.get("cpu_seconds") is not None:
+                cpu += float(doc["cpu_seconds"])
+                cpu_tasks += 1
+    return {"worker_seconds": wall, "cpu_seconds": cpu, "cpu_tasks": cpu_tasks}
+
+
+def _time_text(doc: dict) -> str:
+    """ "W worker-minutes of tasks" (wall), with the CPU minutes of those that recorded
+    them: of all, or "C CPU-minutes on K of them"."""
+    text = f"{float(doc['worker_seconds']) / 60:.0f} worker-minutes of tasks"
+    k, done = doc.get("cpu_tasks") or 0, doc.get("tasks_done")
+    if k:
+        cpu = f"{float(doc['cpu_seconds']) / 60:.0f} CPU-minutes"
+        text += f", {cpu}" if k == done else f"; {cpu} on the {k} that recorded CPU time"
+    return text
 
 
 def _read_verdicts(study_dir: Path) -> dict:
@@ -339,7 +357,7 @@ def write_report(study_dirs, path) -> Path:
         rel = Path(os.path.relpath(d.resolve(), root)).as_posix()
         doc["dir"] = "." if rel == "." else rel
         if "worker_seconds" not in doc:
-            doc["worker_seconds"] = _study_seconds(d)
+            doc.update(_study_seconds(d))
         docs.append(doc)
     rank = {n: i for i, n in enumerate(ORDER)}
     docs.sort(key=lambda d: (rank.get(d["study"], len(ORDER)), d["dir"]))
@@ -378,8 +396,7 @@ def write_report(study_dirs, path) -> Path:
         kind = " (quick run: a smoke test)" if d.get("quick") else ""
         lines += [f"## {d['title']}{kind}", "",
                   f"Directory `{d['dir']}/` (code {d.get('code_version', '?')}; "
-                  f"{_tasks_text(d)}{float(d['worker_seconds']) / 60:.0f} worker-minutes "
-                  "of tasks).", "",
+                  f"{_tasks_text(d)}{_time_text(d)}).", "",
                   d.get("text", ""), ""]
         for fig in d.get("figures", []):
             lines += [f"![{fig}]({prefix}{fig}) (PDF: `{prefix}"

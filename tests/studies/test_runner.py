@@ -322,6 +322,35 @@ def test_a_task_runs_once_whoever_calls_and_no_lock_file_is_left(tmp_path):
     assert not [p for p in out.rglob("*") if p.name.endswith(".lock")]
 
 
+def test_a_task_records_its_own_cpu_time_not_its_sleep_nor_a_busy_neighbour(tmp_path,
+                                                                           monkeypatch):
+    # on a shared machine a task's CPU time is the fair measure of its cost: a second
+    # of sleep costs none, and a thread spinning beside it in the same process is not it
+    import threading
+    from forcespace.sweep import execute
+    import tiny_study
+    monkeypatch.setenv("TINY_STUDY_SLEEP", "1.0")
+    (task,) = tiny_study.tasks(True)[:1]
+    stop, spun = threading.Event(), []
+
+    def spin():
+        t0 = time.thread_time()
+        while not stop.is_set():
+            pass
+        spun.append(time.thread_time() - t0)
+
+    neighbour = threading.Thread(target=spin)
+    neighbour.start()
+    try:
+        res = execute(task, str(tmp_path / "s"))
+    finally:
+        stop.set()
+        neighbour.join()
+    assert res["ok"] and res["wall_seconds"] >= 1.0
+    assert 0 < res["cpu_seconds"] < res["wall_seconds"] - 0.7
+    assert spun[0] > 0.7          # the neighbour did burn CPU the task must not count
+
+
 def test_two_concurrent_studies_into_one_directory_run_every_task_once(tmp_path):
     out = tmp_path / "tiny"
     e = env()
