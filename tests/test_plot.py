@@ -63,3 +63,21 @@ def test_a_log_axis_without_positive_data_is_saved_linear_with_a_note(tmp_path):
     assert ax_zero.get_xscale() == "log" and ax_zero.get_yscale() == "linear"
     assert ax_empty.get_yscale() == "linear"
     assert any("no positive values on the y axis" in t.get_text() for t in ax_zero.texts)
+
+
+def test_a_title_above_the_figure_edge_is_saved_not_cut_off(tmp_path):
+    # packing plots put the force legend above the Axes and the title above that; with
+    # an equal aspect tight_layout cannot always make room, and the title was cut off
+    import matplotlib.image as mpimg
+    from matplotlib.figure import Figure
+
+    from forcespace.plot import save_figure
+    fig = Figure(figsize=(4, 3), dpi=100)
+    ax = fig.subplots()
+    ax.set_aspect("equal")
+    ax.set_title("a title far above", pad=150)
+    save_figure(fig, tmp_path / "f.png", dpi=100)
+    img = mpimg.imread(tmp_path / "f.png")
+    title = ax.title.get_window_extent()
+    assert title.y0 > fig.bbox.height                     # drawn beyond the canvas...
+    assert img.shape[0] > fig.bbox.height + title.height  # ...and inside the saved image

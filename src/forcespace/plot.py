@@ -250,10 +250,13 @@ def _unlog_empty_axes(fig) -> None:
 def save_figure(fig, path, dpi=150, tight: bool = False):
     """Save ``fig`` at ``path``; a PNG also gets a PDF twin. Atomic via temp + rename.
     A log axis without positive data is drawn linear with a note; ``tight``: lay the
-    figure out with ``tight_layout`` first."""
+    figure out with ``tight_layout`` first. The saved image is cropped to everything
+    drawn, so a title or legend placed outside an Axes (above an equal-aspect packing,
+    where ``tight_layout`` cannot make room) is never cut off."""
     _unlog_empty_axes(fig)
     if tight:
         fig.tight_layout()
     for t in figure_targets(path):
         with atomic_path(t) as tmp:
-            fig.savefig(tmp, dpi=dpi, format=t.suffix.lstrip(".").lower() or "png")
+            fig.savefig(tmp, dpi=dpi, format=t.suffix.lstrip(".").lower() or "png",
+                        bbox_inches="tight", pad_inches=0.1)

@@ -409,10 +409,11 @@ def _figure(out, by_mu) -> None:
     fig = Figure(figsize=(15, 4.4))
     ax1, ax2, ax3 = fig.subplots(1, 3)
     ax1.errorbar(mus, [b["rho_mean"] for b in by_mu], [b["rho_sd"] for b in by_mu], fmt="o-",
-                 capsize=2, label="rho: elementary clusters per interior disk (mean ± sd; "
-                                  "determinate packings count 0)")
-    ax1.set(xscale="log", xlabel="mu", ylabel="rho", title="density of elementary clusters")
-    ax1.legend(fontsize=7)
+                 capsize=2, label="mean ± sd over packings (determinate packings count 0)")
+    ax1.set(xscale="log", xlabel=r"$\mu$",
+            ylabel=r"$\rho$: elementary clusters per interior disk",
+            title="density of elementary clusters")
+    ax1.legend(fontsize=7, loc="upper right")
 
     def line(ax, key, fmt, label, bs=None):
         pts = [(b["mu"], b[key]) for b in (bs or by_mu) if b[key] is not None]
@@ -422,9 +423,10 @@ def _figure(out, by_mu) -> None:
     line(ax2, "largest_domain_fraction", "s-", "largest domain / slice contacts")
     line(ax2, "varying_fraction", "^-", "varying contacts / slice contacts")
     line(ax2, "percolating", "ko:", "fraction of packings percolating")
-    ax2.axvline(SMALL_MU, color="grey", lw=0.8, ls="--")
+    ax2.axvline(SMALL_MU, color="grey", lw=0.8, ls="--",
+                label=f"verdict windows: mu <= {SMALL_MU:g}, mu >= {LARGE_MU:g}")
     ax2.axvline(LARGE_MU, color="grey", lw=0.8, ls="--")
-    ax2.set(xscale="log", xlabel="mu", ylabel="fraction", ylim=(-0.03, 1.03),
+    ax2.set(xscale="log", xlabel=r"$\mu$", ylabel="fraction", ylim=(-0.03, 1.03),
             title="localisation of indeterminacy (dim S > 0)")
     ax2.legend(fontsize=7)
     for key, n, fmt, label in (("localised_found_again", "localised_domains", "o-",
@@ -435,8 +437,9 @@ def _figure(out, by_mu) -> None:
         if pts:
             ax3.plot(*zip(*pts), fmt, label=label)
     line(ax3, "percolating_jaccard", "kd:", "percolating domains: best-match Jaccard")
-    ax3.axhline(FOUND_AGAIN, color="grey", lw=0.8, ls="--")
-    ax3.set(xscale="log", xlabel="mu", ylabel="fraction", ylim=(-0.03, 1.03),
+    ax3.axhline(FOUND_AGAIN, color="grey", lw=0.8, ls="--",
+                label=f"verdict threshold {FOUND_AGAIN:g}")
+    ax3.set(xscale="log", xlabel=r"$\mu$", ylabel="fraction", ylim=(-0.03, 1.03),
             title="the same domains under other loads")
     ax3.legend(fontsize=7)
     save_figure(fig, out / "fig2_clusters.png", tight=True)
@@ -507,7 +510,7 @@ def _draw_examples(rows, out) -> bool:
         dec = decompose(prob, an, p)
         x1, x2 = extreme_pair(prob, an, r["seed"])
         fs.plot_difference(p, prob, x1, x2, dec.domains, ax=ax, clusters=dec.clusters,
-                        title=f"mu = {r['mu']:.3g} (seed {r['seed']}): dim S = {an.dim}, "
+                        title=f"$\\mu$ = {r['mu']:.3g} (seed {r['seed']}): dim $S$ = {an.dim}, "
                               f"{dec.n_elementary} elementary")
     save_figure(fig, Path(out) / "fig2.png", tight=True)
     return True
