@@ -241,3 +241,26 @@ def test_a_centre_a_round_off_outside_a_facet_is_recentred_in_the_frame():
     assert (s0 / np.linalg.norm(H0, axis=1)).min() == pytest.approx(an.radius, rel=1e-6)
     b = fs.BilliardWalk(2000, seed=1, target_ess=100).compute(prob, analysis=fake)
     assert b.success and b.ensemble.violations.max() <= 1e-9
+
+
+def test_a_near_mechanism_counted_as_null_does_not_fail_the_relax_walk():
+    # The slice of this mu = 10 packing (fig1, seed 5; dim S = 1) has an equality
+    # singular value of 5.5e-9 sigma_max: far below the rank cut, five decades below the
+    # smallest one kept, so the analysis counts it as null, and S's one direction is
+    # that near-mechanism. A point moved along it by y misses equilibrium by up to
+    # 5.5e-9 |y|: the relax walk's exact projection of a stalled sample missed by
+    # 1.8e-9 <Fn> and was refused against the flat 1e-9 (the fig1 run lost this walk).
+    # Verified against the floor the null directions leave (as the billiard walk's),
+    # the walk runs, and every sample stays within a few 1e-9 <Fn> of equilibrium.
+    import scipy.linalg as sla
+    from forcespace.space.projection import eq_system
+    prob = slice_problem(fs.read_packing(DATA / "paper_mu10_seed5.h5"), 28.0)
+    C = eq_system(prob)[0].toarray()
+    s = sla.svdvals(C)
+    kept = s > 1e-10 * s.max() * max(C.shape)        # config.RANK_TOL's rule
+    assert s[~kept].max() > 1e-9 * s.max() and s[kept].min() > 1e-4 * s.max()
+    walk = fs.RelaxWalk(n=50, seed=5, chains=4)
+    ens = walk.compute(prob).ensemble
+    assert ens.n_samples == 50 and walk.projected.size > 0
+    assert ens.violations.max() <= 5e-9
+    assert np.ptp(ens.samples, axis=0).max() > 1e-3     # the walk moves along S

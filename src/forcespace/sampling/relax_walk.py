@@ -62,6 +62,7 @@ class Relaxer:
         self.system = frozen_contacts(p)
         self.mu = self.system.mu
         self.n_l1 = 0          # stalls finished by the L1-nearest network (see relax)
+        self.allowed = config.SAMPLE_VIOLATION   # what the last relax's point is verified to
         self.projector = Projector(p)   # exact projection of stalled relaxations onto S
 
     def relax(self, x, tol=config.SAMPLE_VIOLATION, chunk=200, max_sweeps=2_000_000, seed=0,
@@ -87,10 +88,12 @@ class Relaxer:
                     stall_sweeps=stall_sweeps)
         out[0::2] = rn
         out[1::2] = rt
+        self.allowed = tol
         if res.converged:
             return out.copy(), res, False
         try:
-            nearest = self.projector(out).nearest
+            proj = self.projector(out)
+            nearest, self.allowed = proj.nearest, max(tol, proj.allowed_violation)
         except NumericalError as exc:   # unverifiable on an ill-conditioned slice: L1 by LP
             nearest = l1_nearest(self.problem, out)
             self.n_l1 += 1
@@ -181,7 +184,7 @@ class _Walk:
         xn, res, projected = self.relaxer.relax(xk, self.tol, self.chunk, self.max_sweeps,
                                                 self.seed + 1 + i)
         v = self.problem.violation(xn)
-        if not v <= self.tol:
+        if not v <= self.relaxer.allowed:   # tol, or a projection's equilibrium floor
             raise NumericalError(f"relax sample {i} violates S by {v:.3e} x <Fn> "
                                  f"({res.message})")
         self.x[c] = xn

@@ -32,7 +32,11 @@ class DistanceResult:
     <Fn> = problem.force_scale and m the number of unknown contacts, i.e. the
     rms per-contact distance in units of the mean normal force.
     nearest (2m,) is the exact projection (verified KKT point); kkt_residual
-    and max_violation (relative to <Fn>) report the verification.
+    and max_violation (relative to <Fn>) report the verification; allowed_violation
+    is what it was verified to: ``config.SAMPLE_VIOLATION``, plus, for a point verified in
+    null-space coordinates, the equilibrium floor of the rank decision (as the billiard
+    walk's): |Ceq N| |y| / <Fn>, the residual that directions counted as null (singular
+    values below the rank cut) leave at the point's coordinates y.
     """
 
     absolute: float
@@ -41,6 +45,7 @@ class DistanceResult:
     max_violation: float
     kkt_residual: float
     method: str
+    allowed_violation: float = config.SAMPLE_VIOLATION
 
 
 @dataclass
@@ -62,6 +67,7 @@ class _Frame:
     Q: np.ndarray
     M: np.ndarray
     u: np.ndarray
+    abs_CN: np.ndarray
 
 
 def _frame(problem: StaticsProblem) -> _Frame:
@@ -71,7 +77,7 @@ def _frame(problem: StaticsProblem) -> _Frame:
     xa = sla.lstsq(Ceq, ceq, lapack_driver="gelsd")[0]
     N = null_basis(Ceq)
     return _Frame(G=G, Gd=G.toarray(), Ceq=Ceq, ceq=ceq, xa=xa, N=N, Q=range_basis(Ceq),
-                  M=np.asarray(G @ N), u=-np.asarray(G @ xa))
+                  M=np.asarray(G @ N), u=-np.asarray(G @ xa), abs_CN=np.abs(Ceq @ N))
 
 
 def _ldp_projection(problem: StaticsProblem, xhat, frame: _Frame):
@@ -213,19 +219,33 @@ def project(problem: StaticsProblem, x, frame: _Frame | None = None) -> Distance
         xn2, kkt2, ok2 = _polish(problem, x, xq, frame=frame)
         if ok2 or kkt2 < kkt:
             xn, kkt, ok = xn2, kkt2, ok2
-    if not ok and kkt_q <= config.KKT_TOL and problem.violation(xq) <= config.SAMPLE_VIOLATION:
+    if not ok and kkt_q <= config.KKT_TOL and problem.violation(xq) <= (
+            config.SAMPLE_VIOLATION + _null_floor(frame, xq, problem.force_scale)):
         # the full-space check failed on near-dependent equality rows (rank decision);
         # the LDP point's own KKT conditions, in null-space coordinates, hold
         xn, kkt, ok = xq, kkt_q, True
         method = "null-space LDP (Lawson-Hanson NNLS), KKT verified in null-space coordinates"
+    # a point of S as the rank decision defines it may miss the equalities by the
+    # residual its directions counted as null leave (0 where the null basis is exact)
+    allowed = config.SAMPLE_VIOLATION + _null_floor(frame, xn, problem.force_scale)
     viol = problem.violation(xn)
-    if not ok or viol > config.SAMPLE_VIOLATION:
+    if not ok or viol > allowed:
         raise NumericalError(f"projection onto S could not be verified (kkt={kkt:.2e}, "
                              f"violation={viol:.2e})")
     d = float(np.linalg.norm(xn - x))
     rel = d / (problem.force_scale * np.sqrt(problem.n_contacts))
     return DistanceResult(absolute=d, relative=rel, nearest=xn, max_violation=viol,
-                          kkt_residual=kkt, method=method)
+                          kkt_residual=kkt, method=method, allowed_violation=allowed)
+
+
+def _null_floor(frame: _Frame, x, scale: float) -> float:
+    """Equilibrium floor |Ceq N| |N^T (x - xa)| / <Fn> of a point x of the frame's affine
+    space: the largest equality residual the null directions' own residual (singular
+    values of Ceq below the rank cut) can leave there (0 where the basis is exact)."""
+    if frame.N.shape[1] == 0:
+        return 0.0
+    y = frame.N.T @ (np.asarray(x, float) - frame.xa)
+    return float((frame.abs_CN @ np.abs(y)).max(initial=0.0) / max(scale, 1e-300))
 
 
 def distance_to_S(problem: StaticsProblem, x) -> DistanceResult:
