@@ -229,8 +229,7 @@ def draw_packing(p: Packing, path, title: str | None = None, values=None,
     """:func:`plot_packing` written to ``path`` (its suffix picks the format; a
     ``.png`` also gets a ``.pdf`` twin)."""
     ax = plot_packing(p, None, values=values, signed=signed, title=title)
-    ax.figure.tight_layout()
-    save_figure(ax.figure, path, dpi)
+    save_figure(ax.figure, path, dpi, tight=True)
 
 
 def _unlog_empty_axes(fig) -> None:

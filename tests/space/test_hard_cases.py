@@ -253,11 +253,12 @@ def test_a_near_mechanism_counted_as_null_does_not_fail_the_relax_walk():
     # Verified against the floor the null directions leave (as the billiard walk's),
     # the walk runs, and every sample stays within a few 1e-9 <Fn> of equilibrium.
     import scipy.linalg as sla
+    from forcespace import config
     from forcespace.space.projection import eq_system
     prob = slice_problem(fs.read_packing(DATA / "paper_mu10_seed5.h5"), 28.0)
     C = eq_system(prob)[0].toarray()
     s = sla.svdvals(C)
-    kept = s > 1e-10 * s.max() * max(C.shape)        # config.RANK_TOL's rule
+    kept = s > config.RANK_TOL * s.max() * max(C.shape)     # linalg.rank's rule
     assert s[~kept].max() > 1e-9 * s.max() and s[kept].min() > 1e-4 * s.max()
     walk = fs.RelaxWalk(n=50, seed=5, chains=4)
     ens = walk.compute(prob).ensemble

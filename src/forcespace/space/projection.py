@@ -33,10 +33,10 @@ class DistanceResult:
     rms per-contact distance in units of the mean normal force.
     nearest (2m,) is the exact projection (verified KKT point); kkt_residual
     and max_violation (relative to <Fn>) report the verification; allowed_violation
-    is what it was verified to: ``config.SAMPLE_VIOLATION``, plus, for a point verified in
-    null-space coordinates, the equilibrium floor of the rank decision (as the billiard
-    walk's): |Ceq N| |y| / <Fn>, the residual that directions counted as null (singular
-    values below the rank cut) leave at the point's coordinates y.
+    is what it was verified to: ``config.SAMPLE_VIOLATION`` plus the equilibrium floor of
+    the rank decision (as the billiard walk's): |Ceq N| |y| / <Fn>, the residual that
+    directions counted as null (singular values below the rank cut) leave at the point's
+    null-space coordinates y (0 where the null basis is exact).
     """
 
     absolute: float
