@@ -9,6 +9,7 @@ from forcespace.engine.protocol import build_packing
 from forcespace.space.force_space import ForceSpace
 from forcespace.model.scene import validate
 from forcespace.model.problem import build_problem, full_problem
+from forcespace.model.walls import BOTTOM
 
 
 @pytest.mark.parametrize("kw", [
@@ -55,6 +56,36 @@ def test_frictionless_gravity_layer_keeps_every_loaded_disk(tmp_path):
     assert prob.n_interior == p.n_disks
     assert prob.violation(prob.x_jammed) <= 1e-8
     assert ForceSpace(ranges=False).compute(prob).feasible
+
+
+def _study_layer(mu, seed, n=100):
+    """A layer of n disks jammed by the bundled ``layer`` scene as the point-force study
+    jams it (floor friction = mu, periodic width 42 R)."""
+    from forcespace import jam
+    return jam("layer", physics__mu=mu, physics__plate_mu=mu, scene__seed=seed,
+               disks__n=n, box__width=42.0)
+
+
+def test_a_layer_under_gravity_settles_instead_of_shearing_on_truncated_sweeps():
+    # at solver.tolerance 1e-8 this 320-disk layer never came to rest: Gauss-Seidel
+    # stopped each step with ~1e-6 R/T of velocity error and the whole layer sheared
+    # steadily (vx growing with height) for 4e5 steps (NumericalError after ~50 CPU s);
+    # the bundled scene solves to 1e-10 and it settles (~18 CPU s)
+    p = _study_layer(0.3, 2, n=320)
+    assert p.equilibrium_residual() <= 1e-10
+    assert not p.rattlers().any()                 # every disk bears its weight
+
+
+def test_a_lone_disk_rolling_on_the_floor_does_not_hold_up_rest():
+    # one disk of this layer ends alone on the floor, rolling at 1.5e-5 R/T (no rolling
+    # resistance: it never stops); it used to keep the jam from ending for 4e5 steps
+    p = _study_layer(0.3, 9)
+    live = p.force_bearing()
+    ends = np.concatenate([p.a[live], p.b[live]])
+    alone_on_floor = [k for k in range(p.n_disks)
+                      if (ends == k).sum() == 1 and (p.b[live & (p.a == BOTTOM)] == k).any()]
+    assert alone_on_floor                         # the case this test is about is here
+    assert p.equilibrium_residual() <= 1e-10
 
 
 def test_rerun_after_max_steps_reports_again_instead_of_crashing(tmp_path, capsys):
