@@ -52,10 +52,10 @@ OVERLOADS = (1.05, 1.1, 1.25, 1.5, 2.0, 3.0, 5.0)   # pushes, in units of F*, un
 # 42 R periodic box settle to a layer whose highest centre lies ~65-70 R above the floor
 # (measured: 66.6 R at mu = 0.1, seed 1; 100 disks: 20.1-23.2 R over 10 layers, 200 disks:
 # 42.8 R, so the densest scale to ~64 R), and a region is cut off by the floor only below
-# ~60 R; 40 seeds per mu. Cost: that 320-disk layer (jam, LP, control, one push) took
-# 83 CPU s, 4.5x the same layer at 100 disks; scaled by the 100-disk run's mean task
-# (1.5x that layer's), ~120 CPU s per layer, ~7 CPU-h for the 200 tasks (the slowest
-# 100-disk tasks, pushed up to 5 F*, took 7x the median).
+# ~60 R; 40 seeds per mu. Cost, measured: 33 tasks with the contact solver at 1e-8,
+# 110 CPU s each (7 of them failed: the layer never settled), then with the layer scene
+# at 1e-10 (every layer settles) 153 CPU s each over the first 16 (70-541 CPU s; a
+# layer pushed up to 5 F* costs most): ~8.5 CPU-h for the 200 tasks.
 # The plain sweep (layer): the fast one of paper_fast (runs of 64 contacts, omega 1.8) was
 # not faster on these layers (100 disks, 12 layers: 80 CPU s of jamming with it, 74
 # without; 200 disks, mu = 0.1, seed 1: not at rest after 24 CPU min, against 18 s).
@@ -309,7 +309,7 @@ def summarize(results: list[dict], out) -> dict:
 
 def _figure(out, results, stats_mu) -> None:
     from matplotlib.figure import Figure
-    from matplotlib.ticker import FormatStrFormatter
+    from matplotlib.ticker import FormatStrFormatter, LogLocator
 
     from forcespace.plot import save_figure
 
@@ -349,6 +349,7 @@ def _figure(out, results, stats_mu) -> None:
     a3.set(xscale="log", yscale="log", xlabel=r"friction coefficient $\mu$",
            ylabel="disks in the region", title="size of the rearrangement")
     a3.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+    a3.yaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))   # labels at 2, 5, 20, 50, ...
     a3.yaxis.set_minor_formatter(FormatStrFormatter("%g"))
     for ax in (a1, a2, a3):
         ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14))
