@@ -340,15 +340,22 @@ def test_a_task_records_its_own_cpu_time_not_its_sleep_nor_a_busy_neighbour(tmp_
         spun.append(time.thread_time() - t0)
 
     neighbour = threading.Thread(target=spin)
+    process0 = time.process_time()
     neighbour.start()
     try:
         res = execute(task, str(tmp_path / "s"))
     finally:
         stop.set()
         neighbour.join()
+    process = time.process_time() - process0      # the task, the neighbour and the rest
     assert res["ok"] and res["wall_seconds"] >= 1.0
-    assert 0 < res["cpu_seconds"] < res["wall_seconds"] - 0.7
-    assert spun[0] > 0.7          # the neighbour did burn CPU the task must not count
+    assert 0 < res["cpu_seconds"] < res["wall_seconds"] - 0.7      # the sleep costs none
+    # the neighbour's CPU is not the task's: task + neighbour fit in the process's CPU
+    # time (counting the neighbour in the task would overshoot it by the neighbour's
+    # share). Robust to load: on a busy machine the neighbour gets less than its wall
+    # time (0.34 s of ~1.3 s beside two busy processes on 2 cores), but some
+    assert spun[0] > 0.2
+    assert res["cpu_seconds"] + spun[0] <= process + 0.05
 
 
 def test_two_concurrent_studies_into_one_directory_run_every_task_once(tmp_path):
