@@ -80,10 +80,13 @@ def test_summary_refutes_a_minimum_at_an_end_and_censoring_undecides(tmp_path):
     _, doc = summarize(tmp_path / "b", res)
     assert doc["numbers"]["shallowest_median_mu"]["mu"] == 0.1
     assert doc["verdicts"][0]["verdict"] == "not decidable"
-    # too few judged pushes per mu: no verdict at all
+    # too few judged pushes per mu (a partial run): the claim stays in the table, not
+    # decidable, with the counts
     (tmp_path / "c").mkdir()
     _, doc = summarize(tmp_path / "c", res, min_pushes=7)
-    assert doc["verdicts"] == []
+    (paper,) = doc["verdicts"]
+    assert paper["verdict"] == "not decidable" and paper["kind"] == "paper"
+    assert "mu = 0.1: 6" in paper["ours"] and "0 mu have the 7" in paper["ours"]
 
 
 def test_bootstrap_statistics_by_hand():
@@ -96,3 +99,4 @@ def test_bootstrap_statistics_by_hand():
     groups = {0.01: np.full(6, 9.0), 0.1: np.r_[np.full(5, 1.0), 1e3]}
     assert argmax_bootstrap({m: -g for m, g in groups.items()}, stat=np.median)[0] == 0.1
     assert argmax_bootstrap({m: -g for m, g in groups.items()})[0] == 0.01
+
