@@ -54,8 +54,8 @@ OVERLOADS = (1.05, 1.1, 1.25, 1.5, 2.0, 3.0, 5.0)   # pushes, in units of F*, un
 # 42.8 R, so the densest scale to ~64 R), and a region is cut off by the floor only below
 # ~60 R; 40 seeds per mu. Cost, measured: 33 tasks with the contact solver at 1e-8,
 # 110 CPU s each (7 of them failed: the layer never settled), then with the layer scene
-# at 1e-10 (every layer settles) 153 CPU s each over the first 16 (70-541 CPU s; a
-# layer pushed up to 5 F* costs most): ~8.5 CPU-h for the 200 tasks.
+# at 1e-10 (every layer settles) 155 CPU s each over the first 80 (a layer pushed up
+# to 5 F* costs most: 541 CPU s): ~8.6 CPU-h for the 200 tasks.
 # The plain sweep (layer): the fast one of paper_fast (runs of 64 contacts, omega 1.8) was
 # not faster on these layers (100 disks, 12 layers: 80 CPU s of jamming with it, 74
 # without; 200 disks, mu = 0.1, seed 1: not at rest after 24 CPU min, against 18 s).

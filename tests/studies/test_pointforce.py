@@ -99,4 +99,3 @@ def test_bootstrap_statistics_by_hand():
     groups = {0.01: np.full(6, 9.0), 0.1: np.r_[np.full(5, 1.0), 1e3]}
     assert argmax_bootstrap({m: -g for m, g in groups.items()}, stat=np.median)[0] == 0.1
     assert argmax_bootstrap({m: -g for m, g in groups.items()})[0] == 0.01
-
