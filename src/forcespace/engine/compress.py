@@ -279,10 +279,9 @@ def window_displacement(scene: Scene, bodies: Bodies, start, contacts: ContactFo
     keys, rn = contacts.keys, contacts.rn
     a, b = keys // nb, keys % nb
     on = rn > 0
-    loaded = bodies.fy_ext[:n] != 0
-    loaded[a[on & (a < n)]] = True
-    loaded[b[on & (b < n)]] = True
     disk_ends = np.concatenate([a[on & (a < n)], b[on & (b < n)]])
+    loaded = bodies.fy_ext[:n] != 0
+    loaded[disk_ends] = True
     bearing = np.bincount(disk_ends, minlength=n)     # force-bearing contacts per disk
     on_wall = np.zeros(n, bool)
     wall = on & ((a >= n) | (b >= n))
