@@ -88,6 +88,20 @@ def test_a_lone_disk_rolling_on_the_floor_does_not_hold_up_rest():
     assert p.equilibrium_residual() <= 1e-10
 
 
+def test_a_push_of_zero_force_leaves_a_settled_layer_where_it_was():
+    # the point-force study's control run: the dynamics restart from the settled layer
+    # with its own contact forces. Started cold (zero forces) Gauss-Seidel rebuilt the
+    # network over many steps and this layer sagged 0.035 R meanwhile (a 320-disk layer
+    # at mu = 1: 309 disks slipped > 0.1 R, up to 2.8 R)
+    from forcespace.engine.push import push
+    from forcespace.measures import surface_disk
+    p = _study_layer(1.0, 2, n=40)
+    control = push(p, surface_disk(p), 0.0)
+    assert control.at_rest and control.stats["steps"] == 200      # one window: at rest
+    assert control.displacement.max() < 1e-6
+    assert control.stats["steps_at_sweep_cap"] == 0
+
+
 def test_rerun_after_max_steps_reports_again_instead_of_crashing(tmp_path, capsys):
     scene = tmp_path / "s.toml"
     scene.write_text("[disks]\nn = 20\n[box]\nwidth = 20.0\n[jamming]\nmax_steps = 200\n")

@@ -14,8 +14,10 @@ import numpy as np
 from ..errors import InputError, NumericalError
 from ..model.packing import Packing
 from ..model.scene import parse_scene_text
+from ..model.walls import N_WALL_SLOTS, kernel_body_index
 from .bodies import force_unit, make_bodies
-from .compress import compress
+from .compress import Run, compress
+from .records import ContactForces
 from .static import static_solve
 
 
@@ -36,7 +38,11 @@ def push(packing: Packing, disk: int, force: float, seed: int = 0,
     """Contact dynamics of ``packing``'s scene from its state with an extra downward
     ``force`` [F0] on ``disk``'s centre, until at rest (the scene's jamming criteria)
     or ``max_steps`` steps (then ``at_rest`` is False: the disk keeps moving, e.g.
-    creeping through the layer, and the displacements are those reached)."""
+    creeping through the layer, and the displacements are those reached).
+
+    The dynamics start warm, from the packing's own contact forces: restarted from zero
+    forces, Gauss-Seidel needs many steps to rebuild a thick layer's network and the
+    layer sags meanwhile (at mu = 1 far enough to set disks slipping with no push)."""
     if not packing.scene_text:
         raise InputError("packing", "scene_text", "is empty: the packing does not record "
                          "the scene that made it")
@@ -51,7 +57,8 @@ def push(packing: Packing, disk: int, force: float, seed: int = 0,
     bodies.fy_ext[disk] -= force / force_unit(scene)
     after = None
     try:
-        stats = compress(scene, bodies, seed, show_progress=False)
+        stats = compress(scene, bodies, seed, show_progress=False,
+                         run=Run(contacts=settled_forces(packing, scene)))
     except NumericalError as exc:
         if not np.all(np.isfinite(bodies.y)):
             raise
@@ -64,3 +71,16 @@ def push(packing: Packing, disk: int, force: float, seed: int = 0,
         dx -= scene["box.width"] * np.round(dx / scene["box.width"])
     disp = np.hypot(dx, bodies.y[:packing.n_disks] - y0)
     return PushResult(displacement=disp, at_rest=after is not None, after=after, stats=stats)
+
+
+def settled_forces(packing: Packing, scene) -> ContactForces:
+    """The packing's contact forces as the engine's warm start: keys a*nb + b of kernel
+    body indices (sorted), rn, rt [sigma] = fn, ft [F0] / the scene's force unit."""
+    n = packing.n_disks
+    nb = n + N_WALL_SLOTS
+    keys = kernel_body_index(packing.a, n) * nb + kernel_body_index(packing.b, n)
+    order = np.argsort(keys, kind="stable")
+    sigma = force_unit(scene)
+    return ContactForces(keys[order].astype(np.int64),
+                         np.asarray(packing.fn, float)[order] / sigma,
+                         np.asarray(packing.ft, float)[order] / sigma)
