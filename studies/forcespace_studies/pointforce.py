@@ -8,9 +8,10 @@ interrupted run holds complete seed rounds. Per task: settle a layer under gravi
 (bundled scene ``layer``, floor friction = disk friction, periodic
 width ``width``), take its highest disk, find by LP the largest downward point force F*
 its rigid contact network can carry (:func:`forcespace.space.loads.max_point_force`),
-and push with F* times ``OVERLOADS`` in turn (each from the settled state) until the push
-rearranges the layer around the pushed disk; as a control, run the same dynamics with
-no force (a layer that moves then was not at rest).
+and push with F* times ``OVERLOADS`` in turn (each from the settled state, its contact
+forces the dynamics' warm start) until the push rearranges the layer around the pushed
+disk; as a control, run the same dynamics with no force (a layer that moves then was
+not at rest).
 
 The rearrangement (:func:`forcespace.measures.rearrangement_depth`) is the connected
 displaced region around the push: the disks displaced by more than ``DISPLACED`` R that
@@ -396,12 +397,11 @@ def _text(rows, stats_mu, numbers) -> str:
         f"Judged: a rearrangement around the push that came to rest, on a layer whose "
         f"control run (the same dynamics without force) displaced no disk by more than "
         f"{DISPLACED:g} R. The control and every push restart the dynamics from the "
-        f"settled positions with zero contact forces (cold): in its first steps the "
-        f"contact solver rebuilds the layer's forces and the layer sags, by ~1e-3 R at "
-        f"mu <= 0.3 but enough at mu = 1 to set disks slipping (measured on the worst "
-        f"layer: every step of the first 200 at the sweep cap, 309 disks moved > "
-        f"{DISPLACED:g} R): restless layers at mu = 1 are mostly that sag, and the "
-        f"pushes there include it. Per mu: {counts}. Not judged: restless (the control "
+        f"settled layer with its own contact forces (a warm start: restarted from zero "
+        f"forces, the contact solver rebuilt the network over many steps and the layer "
+        f"sagged meanwhile, at mu = 1 by up to 2.8 R with no push; runs before that fix "
+        f"are not used). "
+        f"Per mu: {counts}. Not judged: restless (the control "
         f"moved a disk), no rearrangement up to {OVERLOADS[-1]:g} F*, "
         f"push not at rest (still moving after the push's step cap), carries any force "
         f"(no finite F*); failed: the layer did not settle (creep past jamming.max_steps).")
