@@ -26,6 +26,14 @@ Usage::
 
 Rows go to OUT/protocol_validation.jsonl as they finish (a rerun skips the rows it
 has), the table to OUT/protocol_validation.md.
+
+Any other change of the solver is validated the same way: ``--mu``, ``--reference``
+(scene overrides, ``key=value,...``; "issue22" is the reference above, "" the scene as
+shipped), ``--candidate`` (overrides of the shipped scene) and ``--name`` (the stem of
+the two output files), e.g. the tighter contact solve for the size study at mu = 1::
+
+    python -m forcespace_studies.protocol_validation --mu 1 --reference "" \
+        --candidate solver.tolerance=1e-8 --name tolerance_mu1 --sizes 200,400
 """
 from __future__ import annotations
 
@@ -62,16 +70,19 @@ def slice_dim(prob) -> int:
     return int(N.shape[1])
 
 
-def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: float = 0.1) -> dict:
-    """Jam one packing and measure it (runs in a worker process)."""
+def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: float = 0.1,
+        overrides: dict | None = None) -> dict:
+    """Jam one packing and measure it (runs in a worker process). ``overrides``: scene
+    keys of this protocol (default: REFERENCE for "reference", none otherwise)."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from forcespace.engine.protocol import build_packing
     from forcespace.model.problem import slice_problem
     from forcespace.model.scene import load_scene
     scene, _ = load_scene(scene_file).scaled_to(n)
     over = {"physics.mu": mu, "scene.seed": seed}
-    if protocol == "reference":
-        over.update(REFERENCE)
+    if overrides is None:
+        overrides = REFERENCE if protocol == "reference" else {}
+    over.update(overrides)
     scene = scene.with_overrides(**over)
     t0 = time.process_time()
     p = build_packing(scene, show_progress=False)
@@ -90,13 +101,16 @@ def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: fl
 
 
 def run(sizes, seeds, jobs: int, path: Path, protocols=("reference", "candidate"),
-        scene_file: str = "paper_fast") -> list:
+        scene_file: str = "paper_fast", mu: float = 0.1, overrides: dict | None = None) -> list:
+    """Jam and measure every (protocol, n, seed) not yet in ``path``; ``overrides``:
+    {protocol: scene overrides} (default: those of :func:`one`)."""
     rows = [json.loads(line) for line in path.read_text().splitlines()] if path.is_file() else []
     have = {(r["protocol"], r["n"], r["seed"]) for r in rows}
     todo = [(pr, n, s) for n in sizes for s in range(1, seeds + 1)
             for pr in protocols if (pr, n, s) not in have]
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = {pool.submit(one, *t, scene_file): t for t in todo}
+        futures = {pool.submit(one, *t, scene_file, mu, (overrides or {}).get(t[0])): t
+                   for t in todo}
         for fut in as_completed(futures):
             row = fut.result()
             rows.append(row)
@@ -133,6 +147,20 @@ def table(rows, sizes, candidate: str = "candidate") -> str:
     return "\n".join(out)
 
 
+def parse_overrides(text: str) -> dict:
+    """"key=value,key=value" -> {key: number or string} ("" -> {})."""
+    out = {}
+    for item in filter(None, (t.strip() for t in text.split(","))):
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise SystemExit(f"protocol_validation: error: override {item!r} is not key=value")
+        try:
+            out[key.strip()] = float(value) if any(c in value for c in ".eE") else int(value)
+        except ValueError:
+            out[key.strip()] = value.strip()
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", default="200,800")
@@ -142,23 +170,40 @@ def main(argv=None) -> int:
     ap.add_argument("--protocols", default="reference,candidate",
                     help="which protocols to run (rows already in the JSONL are kept)")
     ap.add_argument("--scene", default="paper_fast", help="the paper_fast scene (name or file)")
+    ap.add_argument("--mu", type=float, default=0.1)
+    ap.add_argument("--reference", default="issue22",
+                    help='scene overrides of the reference, key=value,... ("issue22": the '
+                         'protocol of 938734f; "": the scene as shipped)')
+    ap.add_argument("--candidate", default="", help="scene overrides of the candidate")
+    ap.add_argument("--name", default="protocol_validation", help="output file stem")
     a = ap.parse_args(argv)
     sizes = [int(s) for s in a.sizes.split(",")]
+    ref = REFERENCE if a.reference == "issue22" else parse_overrides(a.reference)
+    cand = parse_overrides(a.candidate)
     a.out.mkdir(parents=True, exist_ok=True)
-    rows = run(sizes, a.seeds, a.jobs, a.out / "protocol_validation.jsonl",
-               tuple(a.protocols.split(",")), a.scene)
+    rows = run(sizes, a.seeds, a.jobs, a.out / f"{a.name}.jsonl",
+               tuple(a.protocols.split(",")), a.scene, a.mu,
+               {"reference": ref, "candidate": cand})
     from forcespace.model.scene import load_scene
     sc = load_scene(a.scene)
-    changed = {k: sc[k] for k in REFERENCE}
-    text = (f"# Protocol validation: paper_fast before and after issue 22\n\n"
-            f"Made by `python -m forcespace_studies.protocol_validation --sizes {a.sizes} "
-            f"--seeds {a.seeds}` (see its docstring for the method). mu = 0.1, boxes scaled "
-            f"with n, seeds 1-{a.seeds}. Reference: paper_fast with {REFERENCE} (the protocol "
-            f"of 938734f); candidate: paper_fast as shipped, {changed}.\n\n"
-            + table(rows, sizes) + "\n")
+    if a.reference == "issue22" and not cand:
+        changed = {k: sc[k] for k in REFERENCE}
+        head = (f"# Protocol validation: paper_fast before and after issue 22\n\n"
+                f"Made by `python -m forcespace_studies.protocol_validation --sizes {a.sizes} "
+                f"--seeds {a.seeds}` (see its docstring for the method). mu = 0.1, boxes "
+                f"scaled with n, seeds 1-{a.seeds}. Reference: paper_fast with {REFERENCE} "
+                f"(the protocol of 938734f); candidate: paper_fast as shipped, {changed}.\n\n")
+    else:
+        head = (f"# Protocol validation: {a.scene} {cand or 'as shipped'} against "
+                f"{ref or 'as shipped'}\n\n"
+                f"Made by `python -m forcespace_studies.protocol_validation --sizes {a.sizes} "
+                f"--seeds {a.seeds} --mu {a.mu:g} --reference \"{a.reference}\" --candidate "
+                f"\"{a.candidate}\" --name {a.name}` (see its docstring for the method). "
+                f"mu = {a.mu:g}, boxes scaled with n, seeds 1-{a.seeds}.\n\n")
+    text = head + table(rows, sizes) + "\n"
     for label in sorted({r["protocol"] for r in rows} - {"reference", "candidate"}):
         text += f"\n## Tried, not shipped: {label}\n\n" + table(rows, sizes, label) + "\n"
-    (a.out / "protocol_validation.md").write_text(text)
+    (a.out / f"{a.name}.md").write_text(text)
     print(text)
     return 0
 
