@@ -148,15 +148,18 @@ def table(rows, sizes, candidate: str = "candidate") -> str:
 
 
 def parse_overrides(text: str) -> dict:
-    """"key=value,key=value" -> {key: number or string} ("" -> {})."""
+    """"key=value,key=value" -> {key: value}, each value read as a scene file reads it
+    (TOML: 1e-8 a float, 2000 an integer, true a boolean), unquoted text as a string
+    ("" -> {})."""
+    from forcespace.model.scene import tomllib      # the scene files' TOML reader
     out = {}
     for item in filter(None, (t.strip() for t in text.split(","))):
         key, sep, value = item.partition("=")
         if not sep:
             raise SystemExit(f"protocol_validation: error: override {item!r} is not key=value")
         try:
-            out[key.strip()] = float(value) if any(c in value for c in ".eE") else int(value)
-        except ValueError:
+            out[key.strip()] = tomllib.loads(f"v = {value}")["v"]
+        except tomllib.TOMLDecodeError:
             out[key.strip()] = value.strip()
     return out
 
@@ -184,9 +187,9 @@ def main(argv=None) -> int:
     rows = run(sizes, a.seeds, a.jobs, a.out / f"{a.name}.jsonl",
                tuple(a.protocols.split(",")), a.scene, a.mu,
                {"reference": ref, "candidate": cand})
-    from forcespace.model.scene import load_scene
-    sc = load_scene(a.scene)
     if a.reference == "issue22" and not cand:
+        from forcespace.model.scene import load_scene
+        sc = load_scene(a.scene)
         changed = {k: sc[k] for k in REFERENCE}
         head = (f"# Protocol validation: paper_fast before and after issue 22\n\n"
                 f"Made by `python -m forcespace_studies.protocol_validation --sizes {a.sizes} "

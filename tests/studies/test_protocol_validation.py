@@ -10,6 +10,7 @@ def test_overrides_are_parsed_as_numbers_and_a_bad_one_is_named():
         "solver.tolerance": 1e-8, "solver.max_sweeps": 2000}
     assert parse_overrides("") == {}
     assert parse_overrides("scene.name=x") == {"scene.name": "x"}
+    assert parse_overrides("box.periodic_x=false") == {"box.periodic_x": False}
     with pytest.raises(SystemExit, match="'solver.tolerance' is not key=value"):
         parse_overrides("solver.tolerance")
 
