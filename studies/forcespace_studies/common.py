@@ -1,12 +1,15 @@
 """What several studies share: packings jammed once per study directory."""
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
 import forcespace as fs
 from forcespace import jam, read_packing, write_packing
+from forcespace.errors import InputError
 from forcespace.io.outputs import file_lock
+from forcespace.model.scene import parse_scene_text
 
 
 def packing_path(out, scene: str, mu: float, seed: int, n_disks: int) -> Path:
@@ -24,7 +27,9 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
     a second time. ``reuse_from``: names of sibling study directories (e.g. "fig1")
     whose packings are read instead when they have it. ``overrides``: further scene
     keys (``jam`` style, e.g. ``{"physics__plate_mu": mu}``) that must be a function
-    of (scene, mu, seed, n_disks), since the file name does not record them.
+    of (scene, mu, seed, n_disks), since the file name does not record them: a kept
+    packing jammed under other values of them is refused (InputError naming the file
+    and the key), never reused.
     An interrupted compression resumes from ``OUT/packings/NAME.checkpoint.h5``
     (saved every 30 s; bit-identical to an uninterrupted run), so a study stopped
     in the middle of a long jam loses at most half a minute of it.
@@ -34,17 +39,36 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
     for other in reuse_from:
         theirs = Path(out).parent / other / "packings" / path.name
         if theirs.is_file():
-            return read_packing(theirs), 0.0
+            return reused(theirs, overrides), 0.0
     path.parent.mkdir(parents=True, exist_ok=True)
     with file_lock(path.parent / f".{path.name}.jamlock"):
         if path.is_file():
-            return read_packing(path), 0.0
+            return reused(path, overrides), 0.0
         t0 = time.perf_counter()
         p = jam(scene, physics__mu=mu, scene__seed=seed,
                 disks__n=n_disks, checkpoint=path.with_name(path.name + ".checkpoint.h5"),
                 **(overrides or {}))
         write_packing(p, path)
         return read_packing(path), time.perf_counter() - t0
+
+
+def reused(path, overrides=None):
+    """The kept packing at ``path``, checked against the scene ``overrides`` (``jam``
+    style) it must have been jammed with (its stored scene text); InputError names the
+    file, the first key that differs and both values."""
+    p = read_packing(path)
+    if overrides:
+        scene = parse_scene_text(p.scene_text, str(path))
+        for k, want in overrides.items():
+            key = k.replace("__", ".")
+            got = scene[key]
+            same = (math.isclose(got, want, rel_tol=1e-12, abs_tol=0.0)
+                    if isinstance(want, float) and isinstance(got, (int, float)) else got == want)
+            if not same:
+                raise InputError(path, key, f"the study jams with {want!r}; this kept packing "
+                                 "was jammed with another value: move it away to rejam",
+                                 got=got)
+    return p
 
 
 # Rule 4 of the report (report.RULES): a sampling run enters a verdict only if it converged

@@ -84,8 +84,13 @@ def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: fl
         overrides = REFERENCE if protocol == "reference" else {}
     over.update(overrides)
     scene = scene.with_overrides(**over)
+    from forcespace.errors import NumericalError
     t0 = time.process_time()
-    p = build_packing(scene, show_progress=False)
+    try:
+        p = build_packing(scene, show_progress=False)
+    except NumericalError as e:          # a protocol that fails to jam: a result, counted
+        return {"protocol": protocol, "n": n, "seed": seed, "mu": mu,
+                "cpu_s": time.process_time() - t0, "error": str(e)}
     cpu = time.process_time() - t0
     h = 28.0 * math.sqrt(n / 200.0)
     prob = slice_problem(p, h)
@@ -116,6 +121,10 @@ def run(sizes, seeds, jobs: int, path: Path, protocols=("reference", "candidate"
             rows.append(row)
             with path.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
+            if "error" in row:
+                print(f"  {row['protocol']:9s} n={row['n']:4d} seed={row['seed']:2d}: "
+                      f"{row['cpu_s']:6.1f} CPU s, FAILED: {row['error']}", flush=True)
+                continue
             print(f"  {row['protocol']:9s} n={row['n']:4d} seed={row['seed']:2d}: "
                   f"{row['cpu_s']:6.1f} CPU s, z {row['z']:.3f}, phi {row['phi']:.4f}, "
                   f"dim S/Nc {row['dim_s_per_nc']:.3f}", flush=True)
@@ -127,9 +136,15 @@ def table(rows, sizes, candidate: str = "candidate") -> str:
     from scipy import stats
     out = ["| n | quantity | reference (mean +- s.e.) | candidate (mean +- s.e.) | "
            "difference / s.e. | Welch t p | KS p |", "|---|---|---|---|---|---|---|"]
+    failed = []
     for n in sizes:
         ref = [r for r in rows if r["n"] == n and r["protocol"] == "reference"]
         new = [r for r in rows if r["n"] == n and r["protocol"] == candidate]
+        failed += [f"{label} n = {n} seed {r['seed']} ({r['cpu_s']:.0f} CPU s): {r['error']}"
+                   for label, rs in (("reference", ref), ("candidate", new))
+                   for r in rs if "error" in r]
+        ref = [r for r in ref if "error" not in r]
+        new = [r for r in new if "error" not in r]
         if len(ref) < 2 or len(new) < 2:
             continue
         for key, label in QUANTITIES + (("cpu_s", "CPU s"), ("steps", "steps"),
@@ -144,6 +159,9 @@ def table(rows, sizes, candidate: str = "candidate") -> str:
             out.append(f"| {n} ({a.size}+{b.size} seeds) | {label} | {a.mean():{fmt}} +- "
                        f"{sa:{fmt}} | {b.mean():{fmt}} +- {sb:{fmt}} | {z:+.2f} | {t:.3f} | "
                        f"{ks:.3f} |")
+    if failed:
+        out += ["", "Jams that failed (not in the table; a protocol's failures are part of "
+                "its result):", ""] + [f"- {x}" for x in failed]
     return "\n".join(out)
 
 

@@ -1,8 +1,8 @@
-"""The protocol comparison tool: overrides reach the scene it jams, and bad ones are named."""
+"""The protocol comparison tool: overrides reach the scene it jams, bad ones are named,
+failed jams are counted."""
 import pytest
 
-from forcespace.errors import NumericalError
-from forcespace_studies.protocol_validation import one, parse_overrides
+from forcespace_studies.protocol_validation import one, parse_overrides, table
 
 
 def test_overrides_are_parsed_as_numbers_and_a_bad_one_is_named():
@@ -19,5 +19,14 @@ def test_a_protocol_jams_with_its_own_overrides():
     # the same seed under a 200-step budget cannot jam: the override is in the scene
     row = one("candidate", 40, 1, mu=1.0, overrides={"solver.tolerance": 1e-8})
     assert row["mu"] == 1.0 and row["steps"] > 200 and 3.0 < row["z"] < 4.0
-    with pytest.raises(NumericalError, match="not jammed after jamming.max_steps = 200"):
-        one("candidate", 40, 1, mu=1.0, overrides={"jamming.max_steps": 200})
+    # a jam that fails is a row of its protocol (counted, listed), not the end of the run
+    failed = one("candidate", 40, 1, mu=1.0, overrides={"jamming.max_steps": 200})
+    assert "not jammed after jamming.max_steps = 200" in failed["error"]
+    assert failed["cpu_s"] > 0 and "z" not in failed
+    def other(r, f, **kw):                  # a second seed's row: its measures scaled
+        keys = ("z", "phi", "rattler_fraction", "dim_s_per_nc", "cpu_s", "steps", "updates")
+        return {**r, **{k: r[k] * f for k in keys}, **kw}
+    text = table([row, other(row, 1.01, seed=2), other(row, 1.02, protocol="reference"),
+                  other(row, 0.97, protocol="reference", seed=2), failed], [40])
+    assert "| 40 (2+2 seeds) | z |" in text
+    assert "- candidate n = 40 seed 1" in text and "max_steps = 200" in text

@@ -505,6 +505,22 @@ def test_size_quick_scaled_boxes_and_indeterminacy_bookkeeping(tmp_path, capsys)
     assert all(rows[f"n60_mu0.1_s{s}"]["dim_S"] > 0 for s in (1, 2))
 
 
+def test_a_kept_packing_is_reused_only_under_the_overrides_it_was_jammed_with(tmp_path):
+    from forcespace.errors import InputError
+    from forcespace_studies.common import shared_packing
+    from forcespace.model.scene import parse_scene_text
+    # the override reaches the packing's own scene record ...
+    tight = {"solver__tolerance": 1e-8}
+    p, t_jam = shared_packing(tmp_path, "quick", 0.3, 1, 24, overrides=tight)
+    assert t_jam > 0
+    assert parse_scene_text(p.scene_text)["solver.tolerance"] == 1e-8
+    # ... the same protocol reuses it, another one refuses it by file and key
+    again, t_again = shared_packing(tmp_path, "quick", 0.3, 1, 24, overrides=tight)
+    assert t_again == 0.0 and np.array_equal(again.x, p.x)
+    with pytest.raises(InputError, match=r"quick_n24_mu0.3_s1\.h5: solver\.tolerance = 1e-08"):
+        shared_packing(tmp_path, "quick", 0.3, 1, 24, overrides={"solver__tolerance": 1e-6})
+
+
 def test_size_model_comparison_tells_a_power_law_from_saturation():
     from forcespace_studies import size
     n = np.repeat([100.0, 200.0, 400.0, 800.0, 2000.0], 6)
