@@ -281,6 +281,56 @@ def test_a_static_solve_that_keeps_failing_is_refused_after_the_retries():
         build_packing(scene, show_progress=False)
 
 
+def reports_a_stall(real):
+    """``real`` (a static solve) with its residual reported as 1: a stall."""
+    def stalls(*args, **kw):
+        packing, stats = real(*args, **kw)
+        return packing, dict(stats, static_residual=1.0)
+    return stalls
+
+
+def test_a_static_solve_that_stalls_restarts_from_an_exact_point_of_S(monkeypatch):
+    # NLGS from the dynamics' forces can stall on a configuration that is static (seen
+    # at mu = 1, n = 800): after the retries the feasibility LP of S gives a static
+    # network and NLGS restarts from it. Here the protocol's own solves always report a
+    # stall; the restart (the engine's real solve) starts from the LP's point (one LP,
+    # recorded) and the result is an exact static packing
+    from forcespace.engine import protocol
+    from forcespace.model.problem import plate_problem
+    from forcespace.space import force_space
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14, "physics.mu": 1.0})
+    real, lp = protocol.static_solve, force_space.check_feasible
+    points = []
+
+    def feasible(problem):
+        points.append(lp(problem))
+        return points[-1]
+
+    monkeypatch.setattr(protocol, "static_solve", reports_a_stall(real))
+    monkeypatch.setattr(force_space, "check_feasible", feasible)
+    p = build_packing(scene, show_progress=False)
+    assert len(points) == 1 and points[0][0]        # one LP, and S is not empty
+    assert p.meta["static_retries"] == protocol.STATIC_RETRIES
+    assert p.meta["static_restart"] == "exact point"
+    assert p.meta["static_residual"] <= scene["jamming.static_tolerance"]
+    assert p.equilibrium_residual() <= scene["jamming.static_tolerance"]
+    prob = plate_problem(p)                     # a point of S: equilibrium and Coulomb
+    assert prob.violation(prob.forces_from_packing(p.fn, p.ft)) < 1e-9
+
+
+def test_a_configuration_without_a_static_network_is_refused_after_the_restart(monkeypatch):
+    from forcespace.engine import protocol
+    from forcespace.errors import NumericalError
+    from forcespace.space import force_space
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
+    real = protocol.static_solve
+
+    monkeypatch.setattr(protocol, "static_solve", reports_a_stall(real))
+    monkeypatch.setattr(force_space, "check_feasible", lambda problem: (False, None, None))
+    with pytest.raises(NumericalError, match="the exact LP finds no static network"):
+        build_packing(scene, show_progress=False)
+
+
 def test_the_suspended_rest_test_survives_a_checkpoint(tmp_path):
     import h5py
     from forcespace.engine import compress as C

@@ -12,6 +12,13 @@
    criterion suspended for ``UNSETTLE_WINDOWS`` windows, and the static solve is tried
    again, up to ``STATIC_RETRIES`` times (counted in ``meta["static_retries"]``). A
    packing whose first static solve succeeds is unchanged by this.
+   If the last one fails too, the exact LP of S decides
+   (:func:`~forcespace.engine.static.restart_from_exact_point`): a static network
+   exists and NLGS restarts from it (``meta["static_restart"] = "exact point"``), or S
+   is empty ("S empty"; the packing is refused below). NLGS from the dynamics' forces
+   can stall on a configuration that is static (mu = 1, n = 800, seed 3 of paper_fast
+   with solver.tolerance 1e-8: residual 1e-6 after 2e6 sweeps, four times). Packings
+   that jammed before this step existed are unchanged.
 5. The packing is refused (NumericalError) if it keeps an overlap above
    ``jamming.max_overlap`` or its static residual above ``jamming.static_tolerance``.
 
@@ -32,7 +39,7 @@ from .bodies import (Bodies, check_scene, force_unit, loose_start,  # noqa: F401
                      make_bodies, random_radii, row_order)
 from .compress import compress, start_run, unsettle
 from .interrupts import deferred_sigint
-from .static import static_solve
+from .static import restart_from_exact_point, static_solve
 from ..streams import placement_rng
 
 STATIC_RETRIES = 3       # further compressions after a failed static solve
@@ -78,8 +85,17 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
                             interrupt=interrupt, run=run)
             seconds += meta["compress_seconds"]
             packing, static = static_solve(scene, bodies, seed, show_progress, interrupt)
+        restart = ""
+        if not static["static_residual"] <= tol:
+            stalled = static["static_residual"]
+            exact = restart_from_exact_point(scene, bodies, packing, seed, show_progress,
+                                             interrupt)
+            restart = "S empty" if exact is None else "exact point"
+            if exact is not None:
+                packing, static = exact
     packing.solver_log = np.array(run.log, dtype=float).reshape(-1, 5)
-    meta.update(static, compress_seconds=seconds, static_retries=retries)
+    meta.update(static, compress_seconds=seconds, static_retries=retries,
+                static_restart=restart)
     meta["wall_seconds"] = time.perf_counter() - t0
     meta["rotation"] = bool(scene.rotation)
     if not static["static_residual"] <= tol:
@@ -87,7 +103,11 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
             f"static solve stopped at residual {static['static_residual']:.3g} > "
             f"jamming.static_tolerance after {static['static_sweeps']} sweeps"
             + (f", also after {retries} further compressions of {UNSETTLE_WINDOWS}+ windows"
-               if retries else ""))
+               if retries else "")
+            + ("; the exact LP finds no static network of this configuration (S is empty)"
+               if restart == "S empty" else
+               f"; restarted from an exact point of S (the LP's) after stalling at "
+               f"{stalled:.3g}"))
     check_overlap(scene, packing)
     packing.meta = meta
     if checkpoint:

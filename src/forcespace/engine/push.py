@@ -14,11 +14,9 @@ import numpy as np
 from ..errors import InputError, NumericalError
 from ..model.packing import Packing
 from ..model.scene import parse_scene_text
-from ..model.walls import N_WALL_SLOTS, kernel_body_index
 from .bodies import force_unit, make_bodies
 from .compress import Run, compress
-from .records import ContactForces
-from .static import static_solve
+from .static import settled_forces, static_solve
 
 
 @dataclass(frozen=True)
@@ -72,15 +70,3 @@ def push(packing: Packing, disk: int, force: float, seed: int = 0,
     disp = np.hypot(dx, bodies.y[:packing.n_disks] - y0)
     return PushResult(displacement=disp, at_rest=after is not None, after=after, stats=stats)
 
-
-def settled_forces(packing: Packing, scene) -> ContactForces:
-    """The packing's contact forces as the engine's warm start: keys a*nb + b of kernel
-    body indices (sorted), rn, rt [sigma] = fn, ft [F0] / the scene's force unit."""
-    n = packing.n_disks
-    nb = n + N_WALL_SLOTS
-    keys = kernel_body_index(packing.a, n) * nb + kernel_body_index(packing.b, n)
-    order = np.argsort(keys, kind="stable")
-    sigma = force_unit(scene)
-    return ContactForces(keys[order].astype(np.int64),
-                         np.asarray(packing.fn, float)[order] / sigma,
-                         np.asarray(packing.ft, float)[order] / sigma)
