@@ -17,6 +17,14 @@ def packing_path(out, scene: str, mu: float, seed: int, n_disks: int) -> Path:
     return Path(out) / "packings" / f"{scene}_n{n_disks}_mu{mu:.6g}_s{seed}.h5"
 
 
+def jam_lock(path):
+    """The lock a process holds while it jams the packing kept at ``path`` (blocking;
+    creates the directory): another process that needs it waits, then reads it."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return file_lock(path.parent / f".{path.name}.jamlock")
+
+
 def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_from=(),
                    overrides=None):
     """The packing jammed from the bundled scene SCENE at (mu, seed, n_disks), made once per
@@ -40,8 +48,7 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
         theirs = Path(out).parent / other / "packings" / path.name
         if theirs.is_file():
             return reused(theirs, overrides), 0.0
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with file_lock(path.parent / f".{path.name}.jamlock"):
+    with jam_lock(path):
         if path.is_file():
             return reused(path, overrides), 0.0
         t0 = time.perf_counter()

@@ -38,6 +38,7 @@ the two output files), e.g. the tighter contact solve for the size study at mu =
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -71,11 +72,17 @@ def slice_dim(prob) -> int:
 
 
 def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: float = 0.1,
-        overrides: dict | None = None) -> dict:
+        overrides: dict | None = None, keep=None) -> dict:
     """Jam one packing and measure it (runs in a worker process). ``overrides``: scene
-    keys of this protocol (default: REFERENCE for "reference", none otherwise)."""
+    keys of this protocol (default: REFERENCE for "reference", none otherwise).
+    ``keep``: a study directory the packing is also kept in, as that study's own jam of
+    (scene, mu, seed, n) (:func:`~forcespace_studies.common.packing_path`; the study's
+    lock is held while jamming, so a study running beside it waits and reuses it)."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
+    from forcespace import write_packing
     from forcespace.engine.protocol import build_packing
+
+    from .common import jam_lock, packing_path
     from forcespace.model.problem import slice_problem
     from forcespace.model.scene import load_scene
     scene, _ = load_scene(scene_file).scaled_to(n)
@@ -86,8 +93,12 @@ def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: fl
     scene = scene.with_overrides(**over)
     from forcespace.errors import NumericalError
     t0 = time.process_time()
+    kept = packing_path(keep, scene_file, mu, seed, n) if keep else None
     try:
-        p = build_packing(scene, show_progress=False)
+        with jam_lock(kept) if kept else contextlib.nullcontext():
+            p = build_packing(scene, show_progress=False)
+            if kept and not kept.is_file():
+                write_packing(p, kept)
     except NumericalError as e:          # a protocol that fails to jam: a result, counted
         return {"protocol": protocol, "n": n, "seed": seed, "mu": mu,
                 "cpu_s": time.process_time() - t0, "error": str(e)}
@@ -106,16 +117,18 @@ def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: fl
 
 
 def run(sizes, seeds, jobs: int, path: Path, protocols=("reference", "candidate"),
-        scene_file: str = "paper_fast", mu: float = 0.1, overrides: dict | None = None) -> list:
+        scene_file: str = "paper_fast", mu: float = 0.1, overrides: dict | None = None,
+        keep=None) -> list:
     """Jam and measure every (protocol, n, seed) not yet in ``path``; ``overrides``:
-    {protocol: scene overrides} (default: those of :func:`one`)."""
+    {protocol: scene overrides} (default: those of :func:`one`); ``keep``: a study
+    directory the candidate's packings are kept in (:func:`one`)."""
     rows = [json.loads(line) for line in path.read_text().splitlines()] if path.is_file() else []
     have = {(r["protocol"], r["n"], r["seed"]) for r in rows}
     todo = [(pr, n, s) for n in sizes for s in range(1, seeds + 1)
             for pr in protocols if (pr, n, s) not in have]
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = {pool.submit(one, *t, scene_file, mu, (overrides or {}).get(t[0])): t
-                   for t in todo}
+        futures = {pool.submit(one, *t, scene_file, mu, (overrides or {}).get(t[0]),
+                               keep if t[0] == "candidate" else None): t for t in todo}
         for fut in as_completed(futures):
             row = fut.result()
             rows.append(row)
@@ -197,6 +210,9 @@ def main(argv=None) -> int:
                          'protocol of 938734f; "": the scene as shipped)')
     ap.add_argument("--candidate", default="", help="scene overrides of the candidate")
     ap.add_argument("--name", default="protocol_validation", help="output file stem")
+    ap.add_argument("--keep", type=Path, default=None,
+                    help="a study directory (e.g. the size study's) the candidate's packings "
+                         "are also kept in, as that study's jams")
     a = ap.parse_args(argv)
     sizes = [int(s) for s in a.sizes.split(",")]
     ref = REFERENCE if a.reference == "issue22" else parse_overrides(a.reference)
@@ -204,7 +220,7 @@ def main(argv=None) -> int:
     a.out.mkdir(parents=True, exist_ok=True)
     rows = run(sizes, a.seeds, a.jobs, a.out / f"{a.name}.jsonl",
                tuple(a.protocols.split(",")), a.scene, a.mu,
-               {"reference": ref, "candidate": cand})
+               {"reference": ref, "candidate": cand}, a.keep)
     if a.reference == "issue22" and not cand:
         from forcespace.model.scene import load_scene
         sc = load_scene(a.scene)

@@ -60,14 +60,15 @@ QUICK = dict(scene="quick", sizes=(40, 50, 60), mus=(0.1,), seeds=2,
 FULL = dict(scene="paper_fast", sizes=(100, 200, 400, 800, 2000, 5000), mus=(0.01, 0.1, 1.0),
             seeds=10, seeds_by_size={5000: 4}, caps={"billiard": 20000, "hit_and_run": 3000},
             max_seconds=900.0, har_max_n=400, clusters_max_dim=60,
-            last=((2000, 1.0), (5000, 1.0)))
-# last: (n, mu) run after every seed round of the others. The jams at mu = 1 and n >= 2000
-# creep (seed 1: 83 600 steps, ~30 CPU-min, window speeds up to 4e3 x the rest tolerance).
-# Measured since: it is the truncated contact solve, not the packing. Resumed from that
-# checkpoint with solver.tolerance 1e-8 (max_sweeps 20 000) the compression comes to rest
-# in 3 windows (23.5 CPU s; at 1e-10 in 1 window), at this scene's 1e-6 it creeps on
-# (15 windows, 2.6 to 4 364 x the tolerance). A tighter tolerance is a protocol change:
-# validate it (n = 200, 800, 10 seeds, as issue 22's) and rerun every mu = 1 size with it.
+            last=((2000, 1.0), (5000, 1.0)),
+            protocol_by_mu={1.0: {"solver.tolerance": 1e-8}})
+# last: (n, mu) run after every seed round of the others (the costliest jams).
+# protocol_by_mu: scene keys set at one mu. mu = 1 jams with solver.tolerance 1e-8: at
+# the scene's 1e-6 the truncated contact solve keeps the jams at n >= 2000 creeping
+# (n = 2000, seed 1: 83 600 steps, window speeds up to 4e3 x the rest tolerance; resumed
+# from that checkpoint at 1e-8 it comes to rest in 2-3 windows). Validated against the
+# scene as shipped at mu = 1, n = 200, 400, 800 over 10 seeds
+# (studies/protocol_validation_tolerance_mu1.md); every mu = 1 size is jammed with it.
 UNIFORM = ("billiard", "hit_and_run")   # the uniform samplers, in the order they are judged
 GROWS_MUS = (0.01, 0.1)   # the hypothesis: eta grows with n where indeterminacy percolates
 INTENSIVE_MU = 1.0        # ... and is size-independent at mu = INTENSIVE_MU
@@ -120,7 +121,8 @@ def tasks(quick: bool = False) -> list[Task]:
                                      caps=dict(cfg["caps"]), max_seconds=cfg["max_seconds"],
                                      hit_and_run=n <= cfg["har_max_n"],
                                      clusters_max_dim=cfg["clusters_max_dim"],
-                                     window=list(win))))
+                                     window=list(win),
+                                     **protocol_param(cfg, mu))))
     last = {(n, float(mu)) for n, mu in cfg.get("last", ())}
     late = [t for t in out if (t.params["n_disks"], t.params["mu"]) in last]
     return [t for t in out if t not in late] + late
@@ -168,13 +170,23 @@ def _structure(row, prob, an, p, clusters_max_dim, win):
                    window_varying_fraction=float(varying[win].mean()) if win.size else None)
 
 
+def protocol_param(cfg: dict, mu: float) -> dict:
+    """``{"protocol": {key: value}}``, the scene keys the config's ``protocol_by_mu`` sets
+    at this mu (dotted keys), or {} where the scene is jammed as shipped (the task's
+    parameters then stay those of the runs made before protocol_by_mu existed)."""
+    over = cfg.get("protocol_by_mu", {}).get(float(mu))
+    return {"protocol": dict(over)} if over else {}
+
+
 def packing_task(scene: str, n_disks: int, mu: float, seed: int, workdir, caps: dict,
                  max_seconds=None, hit_and_run: bool = True, clusters_max_dim: int = 400,
-                 window=(42.0, 28.0)) -> dict:
+                 window=(42.0, 28.0), protocol: dict | None = None) -> dict:
     """Jam (or reuse) the packing (n, mu, seed) in the scaled box, analyse its scaled
-    slice and its domains, and sample S uniformly (module docstring)."""
+    slice and its domains, and sample S uniformly (module docstring). ``protocol``:
+    scene keys (dotted) jammed with instead of the scene's own (config protocol_by_mu)."""
     wd = Path(workdir)
     height, n0, over = scaled_geometry(scene, n_disks)
+    over.update({k.replace(".", "__"): v for k, v in (protocol or {}).items()})
     p, t_jam = shared_packing(wd.parents[1], scene, mu, seed, n_disks, overrides=over)
     prob = fs.slice_problem(p, height)
     t0 = time.perf_counter()
@@ -458,15 +470,17 @@ def summarize(results: list[dict], out) -> dict:
     last = (info.get("config") or {}).get("last") or ()
     if last:
         text += ("\n\nRun last, after every seed round of the others: " + ", ".join(
-            f"n = {n}, mu = {mu:g}" for n, mu in last) + " (the jams at mu = 1 and n >= "
-            "2000 creep: seed 1 ran 83 600 steps (about 30 CPU-min) with window speeds up "
-            "to 4e3 x the rest tolerance. The creep is the contact solver's truncation, not "
-            "the packing: resumed from its checkpoint with solver.tolerance = 1e-8 instead "
-            "of the scene's 1e-6 the compression comes to rest in 3 windows (23.5 CPU s; "
-            "1e-10: 1 window), at 1e-6 it creeps on (15 windows, 2.6-4 364 x the "
-            "tolerance). A tighter tolerance is a protocol change, to be validated against "
-            "this one at small n before every mu = 1 size is rerun with it; until then "
-            "these tasks are missing).")
+            f"n = {n}, mu = {mu:g}" for n, mu in last) + " (the costliest jams).")
+    for mu, keys in sorted(((info.get("config") or {}).get("protocol_by_mu") or {}).items()):
+        text += (f"\n\nAt mu = {float(mu):g} every size is jammed with "
+                 + ", ".join(f"{k} = {v:g}" for k, v in keys.items()) + " instead of the "
+                 "scene's own value: at the scene's 1e-6 the truncated contact solve keeps "
+                 "the mu = 1 jams at n >= 2000 creeping (n = 2000, seed 1: 83 600 steps, "
+                 "window speeds up to 4e3 x the rest tolerance; resumed from its checkpoint "
+                 "at 1e-8 it comes to rest in 2-3 windows). The change is validated against "
+                 "the scene as shipped at n = 200, 400 and 800 over 10 seeds: no difference "
+                 "in z, packing fraction, rattler fraction or dim S / Nc "
+                 "(studies/protocol_validation_tolerance_mu1.md).")
     if rows:
         text += ("\n\nPackings per (mu, n) and what entered the fits (converged runs with eta "
                  "> 0; determinate ones counted after the +; mean eta over the former with "

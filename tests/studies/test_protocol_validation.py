@@ -15,10 +15,19 @@ def test_overrides_are_parsed_as_numbers_and_a_bad_one_is_named():
         parse_overrides("solver.tolerance")
 
 
-def test_a_protocol_jams_with_its_own_overrides():
+def test_a_protocol_jams_with_its_own_overrides(tmp_path):
+    from forcespace_studies import size
+    from forcespace_studies.common import shared_packing
     # the same seed under a 200-step budget cannot jam: the override is in the scene
-    row = one("candidate", 40, 1, mu=1.0, overrides={"solver.tolerance": 1e-8})
+    row = one("candidate", 40, 1, mu=1.0, overrides={"solver.tolerance": 1e-8},
+              keep=tmp_path)
     assert row["mu"] == 1.0 and row["steps"] > 200 and 3.0 < row["z"] < 4.0
+    # the kept packing is the size study's own jam of (n, mu, seed) under that protocol:
+    # the study reuses it (its scene check passes) and it has the row's coordination
+    _, _, over = size.scaled_geometry("paper_fast", 40)
+    over["solver__tolerance"] = 1e-8
+    p, t_jam = shared_packing(tmp_path, "paper_fast", 1.0, 1, 40, overrides=over)
+    assert t_jam == 0.0 and p.coordination() == row["z"] and p.meta["steps"] == row["steps"]
     # a jam that fails is a row of its protocol (counted, listed), not the end of the run
     failed = one("candidate", 40, 1, mu=1.0, overrides={"jamming.max_steps": 200})
     assert "not jammed after jamming.max_steps = 200" in failed["error"]
