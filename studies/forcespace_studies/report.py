@@ -84,7 +84,15 @@ Where our protocol differs from the paper's, and how that could move the numbers
   `inputs/paper_fast.toml` at every n (runs of 64 contacts, over-relaxation, a looser
   tolerance while the plate moves): the same converged forces per step, other
   trajectories, validated against paper_fast's earlier protocol on z, packing
-  fraction, rattler fraction and dim S / Nc (`studies/protocol_validation.md`).
+  fraction, rattler fraction and dim S / Nc (`studies/protocol_validation.md`). At
+  mu = 1 it jams with a contact solve converged to 1e-8 instead of 1e-6 at every n
+  (at 1e-6 the mu = 1 jams at n >= 2000 creep without end), validated the same way
+  against paper_fast as shipped (`studies/protocol_validation_tolerance_mu1.md`).
+- **Static solve.** The rest state's forces are Gauss-Seidel's on the frozen contacts,
+  from the dynamics' last forces, to a relative residual of 1e-10. Where that stalls,
+  also after three further compressions, Gauss-Seidel restarts from a static network
+  the feasibility LP finds (HiGHS), and a configuration without one is refused; the
+  studies name the packings where this happened.
 - **Rattlers.** A disk that carries no load is a rattler: excluded from z and from S.
   The paper does not state its convention; counting rattlers lowers z by 0.1-0.3.
 - **The slice.** Disks whose centres lie in the middle 28 R (scaled with the box in

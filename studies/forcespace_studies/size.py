@@ -201,6 +201,8 @@ def packing_task(scene: str, n_disks: int, mu: float, seed: int, workdir, caps: 
            "dim_S_over_Nc": an.dim / nc if an.dim is not None and nc else None,
            "degree_of_indeterminacy": an.degree_of_indeterminacy,
            "n_sliding": an.n_sliding, "n_zero_force": an.n_zero, "analysis_ok": an.success,
+           "jam_steps": p.meta.get("steps"), "static_retries": p.meta.get("static_retries"),
+           "static_restart": p.meta.get("static_restart"),
            "t_jam_s": t_jam, "t_analyze_s": time.perf_counter() - t0}
     if not (an.success and an.feasible and an.bounded):
         row["error_analysis"] = an.message if not an.success else "S empty or unbounded"
@@ -232,7 +234,8 @@ ROW_KEYS = ["task", "n", "mu", "seed", "width", "slice_height", "window_width",
             "ess_billiard", "rhat_billiard", "stop_billiard", "error_billiard",
             "eta_hit_and_run", "eta_window_hit_and_run", "converged_hit_and_run",
             "n_hit_and_run", "ess_hit_and_run", "rhat_hit_and_run", "stop_hit_and_run",
-            "error_hit_and_run", "error_analysis", "t_jam_s", "t_analyze_s", "t_clusters_s",
+            "error_hit_and_run", "error_analysis", "jam_steps", "static_retries",
+            "static_restart", "t_jam_s", "t_analyze_s", "t_clusters_s",
             "t_billiard_s", "t_hit_and_run_s"]
 
 
@@ -481,6 +484,7 @@ def summarize(results: list[dict], out) -> dict:
                  "the scene as shipped at n = 200, 400 and 800 over 10 seeds: no difference "
                  "in z, packing fraction, rattler fraction or dim S / Nc "
                  "(studies/protocol_validation_tolerance_mu1.md).")
+    text += restarts_note(rows)
     if rows:
         text += ("\n\nPackings per (mu, n) and what entered the fits (converged runs with eta "
                  "> 0; determinate ones counted after the +; mean eta over the former with "
@@ -498,6 +502,19 @@ def summarize(results: list[dict], out) -> dict:
                                               "call": f["call"]}
                        for (k, scope, mu), f in fits.items()},
             "verdicts": [v.verdict for v in verdicts]}
+
+
+def restarts_note(rows) -> str:
+    """The packings whose static solve stalled and restarted from an exact point of S
+    (build_packing's last step; rows made before it was recorded say nothing)."""
+    hit = [r for r in rows if r.get("static_restart") == "exact point"]
+    if not hit:
+        return ""
+    return ("\n\nStatic solve restarted from an exact point of S (Gauss-Seidel from the "
+            "dynamics' forces stalled above the static tolerance, also after the further "
+            "compressions; the LP found a static network and Gauss-Seidel finished from "
+            f"it): {len(hit)} of {len(rows)} packings (" + ", ".join(
+                f"n = {r['n']}, mu = {r['mu']:g}, seed {r['seed']}" for r in hit) + ").")
 
 
 def _eta_panel(ax, rows, by_n, fits, mus, scope, win):

@@ -521,6 +521,14 @@ def test_a_kept_packing_is_reused_only_under_the_overrides_it_was_jammed_with(tm
         shared_packing(tmp_path, "quick", 0.3, 1, 24, overrides={"solver__tolerance": 1e-6})
 
 
+def test_size_report_names_the_packings_whose_static_solve_restarted():
+    from forcespace_studies import size
+    rows = [dict(n=800, mu=1.0, seed=3, static_restart="exact point"),
+            dict(n=800, mu=1.0, seed=4, static_restart=""), dict(n=100, mu=0.1, seed=1)]
+    assert "1 of 3 packings (n = 800, mu = 1, seed 3)" in size.restarts_note(rows)
+    assert size.restarts_note(rows[1:]) == ""
+
+
 def test_size_model_comparison_tells_a_power_law_from_saturation():
     from forcespace_studies import size
     n = np.repeat([100.0, 200.0, 400.0, 800.0, 2000.0], 6)
