@@ -81,17 +81,17 @@ def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: fl
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from forcespace import write_packing
     from forcespace.engine.protocol import build_packing
-
-    from .common import jam_lock, packing_path
+    from forcespace.errors import NumericalError
     from forcespace.model.problem import slice_problem
     from forcespace.model.scene import load_scene
+
+    from .common import jam_lock, packing_path
     scene, _ = load_scene(scene_file).scaled_to(n)
     over = {"physics.mu": mu, "scene.seed": seed}
     if overrides is None:
         overrides = REFERENCE if protocol == "reference" else {}
     over.update(overrides)
     scene = scene.with_overrides(**over)
-    from forcespace.errors import NumericalError
     t0 = time.process_time()
     kept = packing_path(keep, scene_file, mu, seed, n) if keep else None
     try:

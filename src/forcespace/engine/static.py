@@ -176,6 +176,7 @@ def packing_view(scene: Scene, bodies: Bodies, c: Contacts, image):
                        scene_text=scene.to_toml(), scene_name=scene.name)
     return make
 
+
 def settled_forces(packing: Packing, scene) -> ContactForces:
     """The packing's contact forces as the engine's warm start: keys a*nb + b of kernel
     body indices (sorted), rn, rt [sigma] = fn, ft [F0] / the scene's force unit."""
