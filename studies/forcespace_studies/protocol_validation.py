@@ -77,7 +77,9 @@ def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: fl
     keys of this protocol (default: REFERENCE for "reference", none otherwise).
     ``keep``: a study directory the packing is also kept in, as that study's own jam of
     (scene, mu, seed, n) (:func:`~forcespace_studies.common.packing_path`; the study's
-    lock is held while jamming, so a study running beside it waits and reuses it)."""
+    lock is held while jamming, so a study running beside it waits and reuses it). A
+    packing the study has jammed already is measured, not jammed again: the jam is
+    deterministic and every scene key is checked; its row has cpu_s None (not timed)."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from forcespace import write_packing
     from forcespace.engine.protocol import build_packing
@@ -85,7 +87,7 @@ def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: fl
     from forcespace.model.problem import slice_problem
     from forcespace.model.scene import load_scene
 
-    from .common import jam_lock, packing_path
+    from .common import jam_lock, packing_path, reused
     scene, _ = load_scene(scene_file).scaled_to(n)
     over = {"physics.mu": mu, "scene.seed": seed}
     if overrides is None:
@@ -94,15 +96,20 @@ def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: fl
     scene = scene.with_overrides(**over)
     t0 = time.process_time()
     kept = packing_path(keep, scene_file, mu, seed, n) if keep else None
+    cpu = None                           # not timed: the study jammed it (same scene)
     try:
         with jam_lock(kept) if kept else contextlib.nullcontext():
-            p = build_packing(scene, show_progress=False)
-            if kept and not kept.is_file():
-                write_packing(p, kept)
+            if kept and kept.is_file():  # every scene key checked against this one's
+                p = reused(kept, {k.replace(".", "__"): v for k, v in scene.values.items()
+                                  if k != "scene.name"})
+            else:
+                p = build_packing(scene, show_progress=False)
+                cpu = time.process_time() - t0
+                if kept:
+                    write_packing(p, kept)
     except NumericalError as e:          # a protocol that fails to jam: a result, counted
         return {"protocol": protocol, "n": n, "seed": seed, "mu": mu,
                 "cpu_s": time.process_time() - t0, "error": str(e)}
-    cpu = time.process_time() - t0
     h = 28.0 * math.sqrt(n / 200.0)
     prob = slice_problem(p, h)
     dim = slice_dim(prob)
@@ -139,7 +146,8 @@ def run(sizes, seeds, jobs: int, path: Path, protocols=("reference", "candidate"
                       f"{row['cpu_s']:6.1f} CPU s, FAILED: {row['error']}", flush=True)
                 continue
             print(f"  {row['protocol']:9s} n={row['n']:4d} seed={row['seed']:2d}: "
-                  f"{row['cpu_s']:6.1f} CPU s, z {row['z']:.3f}, phi {row['phi']:.4f}, "
+                  + (f"{row['cpu_s']:6.1f} CPU s" if row["cpu_s"] is not None else
+                     "kept, untimed") + f", z {row['z']:.3f}, phi {row['phi']:.4f}, "
                   f"dim S/Nc {row['dim_s_per_nc']:.3f}", flush=True)
     return rows
 
@@ -162,8 +170,10 @@ def table(rows, sizes, candidate: str = "candidate") -> str:
             continue
         for key, label in QUANTITIES + (("cpu_s", "CPU s"), ("steps", "steps"),
                                         ("updates", "contact updates")):
-            a = np.array([r[key] for r in ref], float)
-            b = np.array([r[key] for r in new], float)
+            a = np.array([r[key] for r in ref if r[key] is not None], float)
+            b = np.array([r[key] for r in new if r[key] is not None], float)
+            if a.size < 2 or b.size < 2:
+                continue
             sa, sb = a.std(ddof=1) / np.sqrt(a.size), b.std(ddof=1) / np.sqrt(b.size)
             t = stats.ttest_ind(a, b, equal_var=False).pvalue
             ks = stats.ks_2samp(a, b).pvalue

@@ -2,6 +2,7 @@
 failed jams are counted."""
 import pytest
 
+from forcespace.errors import InputError
 from forcespace_studies.protocol_validation import one, parse_overrides, table
 
 
@@ -28,6 +29,13 @@ def test_a_protocol_jams_with_its_own_overrides(tmp_path):
     over["solver__tolerance"] = 1e-8
     p, t_jam = shared_packing(tmp_path, "paper_fast", 1.0, 1, 40, overrides=over)
     assert t_jam == 0.0 and p.coordination() == row["z"] and p.meta["steps"] == row["steps"]
+    # measured again from the kept packing, not jammed: the same row, untimed; a protocol
+    # whose scene differs from the kept packing's is refused by key
+    again = one("candidate", 40, 1, mu=1.0, overrides={"solver.tolerance": 1e-8},
+                keep=tmp_path)
+    assert again == dict(row, cpu_s=None)
+    with pytest.raises(InputError, match="solver.tolerance = 1e-08"):
+        one("candidate", 40, 1, mu=1.0, overrides={"solver.tolerance": 1e-7}, keep=tmp_path)
     # a jam that fails is a row of its protocol (counted, listed), not the end of the run
     failed = one("candidate", 40, 1, mu=1.0, overrides={"jamming.max_steps": 200})
     assert "not jammed after jamming.max_steps = 200" in failed["error"]
