@@ -107,7 +107,8 @@ def window_size(scene: str) -> tuple[float, float]:
 def tasks(quick: bool = False) -> list[Task]:
     """Seed-major: for each seed, every size (largest first, so the longest tasks start
     first on a pool) and every mu; an interrupted study has complete seed rounds. The
-    (n, mu) of the config's ``last`` come after all rounds (seed-major among themselves)."""
+    (n, mu) of the config's ``last`` come after all rounds, in the order listed (every
+    seed of the first, then of the next: a run stopped early has whole sizes done)."""
     cfg = config(quick)
     win = window_size(cfg["scene"])
     out = []
@@ -123,8 +124,9 @@ def tasks(quick: bool = False) -> list[Task]:
                                      clusters_max_dim=cfg["clusters_max_dim"],
                                      window=list(win),
                                      **protocol_param(cfg, mu))))
-    last = {(n, float(mu)) for n, mu in cfg.get("last", ())}
+    last = [(n, float(mu)) for n, mu in cfg.get("last", ())]
     late = [t for t in out if (t.params["n_disks"], t.params["mu"]) in last]
+    late.sort(key=lambda t: last.index((t.params["n_disks"], t.params["mu"])))  # stable
     return [t for t in out if t not in late] + late
 
 

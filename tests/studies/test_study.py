@@ -464,6 +464,9 @@ def test_size_quick_scaled_boxes_and_indeterminacy_bookkeeping(tmp_path, capsys)
     first_late = min(i for i, t in enumerate(full)
                      if (t.params["n_disks"], t.params["mu"]) in late)
     assert all((t.params["n_disks"], t.params["mu"]) in late for t in full[first_late:])
+    # ... in the order listed: every seed of n = 2000 before any of n = 5000
+    assert [(t.params["n_disks"], t.params["seed"]) for t in full[first_late:]] == [
+        (2000, s) for s in range(1, 11)] + [(5000, s) for s in range(1, 5)]
     # the box keeps its shape: width and slice height scale by sqrt(n / 40) from the
     # quick scene (20 R, 10 R), so the slice holds the same share of the disks
     share = {}
