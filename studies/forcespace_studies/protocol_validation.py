@@ -141,14 +141,12 @@ def run(sizes, seeds, jobs: int, path: Path, protocols=("reference", "candidate"
             rows.append(row)
             with path.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
-            if "error" in row:
-                print(f"  {row['protocol']:9s} n={row['n']:4d} seed={row['seed']:2d}: "
-                      f"{row['cpu_s']:6.1f} CPU s, FAILED: {row['error']}", flush=True)
-                continue
-            print(f"  {row['protocol']:9s} n={row['n']:4d} seed={row['seed']:2d}: "
-                  + (f"{row['cpu_s']:6.1f} CPU s" if row["cpu_s"] is not None else
-                     "kept, untimed") + f", z {row['z']:.3f}, phi {row['phi']:.4f}, "
-                  f"dim S/Nc {row['dim_s_per_nc']:.3f}", flush=True)
+            cpu = "kept, untimed" if row["cpu_s"] is None else f"{row['cpu_s']:6.1f} CPU s"
+            what = (f"FAILED: {row['error']}" if "error" in row else
+                    f"z {row['z']:.3f}, phi {row['phi']:.4f}, "
+                    f"dim S/Nc {row['dim_s_per_nc']:.3f}")
+            print(f"  {row['protocol']:9s} n={row['n']:4d} seed={row['seed']:2d}: {cpu}, "
+                  f"{what}", flush=True)
     return rows
 
 

@@ -63,12 +63,15 @@ FULL = dict(scene="paper_fast", sizes=(100, 200, 400, 800, 2000, 5000), mus=(0.0
             last=((2000, 1.0), (5000, 1.0)),
             protocol_by_mu={1.0: {"solver.tolerance": 1e-8}})
 # last: (n, mu) run after every seed round of the others (the costliest jams).
-# protocol_by_mu: scene keys set at one mu. mu = 1 jams with solver.tolerance 1e-8: at
-# the scene's 1e-6 the truncated contact solve keeps the jams at n >= 2000 creeping
-# (n = 2000, seed 1: 83 600 steps, window speeds up to 4e3 x the rest tolerance; resumed
-# from that checkpoint at 1e-8 it comes to rest in 2-3 windows). Validated against the
-# scene as shipped at mu = 1, n = 200, 400, 800 over 10 seeds
-# (studies/protocol_validation_tolerance_mu1.md); every mu = 1 size is jammed with it.
+# protocol_by_mu: scene keys set at one mu, for the reason PROTOCOL_WHY gives (the report
+# quotes it).
+PROTOCOL_WHY = {1.0: (
+    "at the scene's 1e-6 the truncated contact solve keeps the mu = 1 jams at n >= 2000 "
+    "creeping (n = 2000, seed 1: 83 600 steps, window speeds up to 4e3 x the rest "
+    "tolerance; resumed from its checkpoint at 1e-8 it comes to rest in 2-3 windows). The "
+    "change is validated against the scene as shipped at n = 200, 400 and 800 over 10 "
+    "seeds: no difference in z, packing fraction, rattler fraction or dim S / Nc "
+    "(studies/protocol_validation_tolerance_mu1.md)")}
 UNIFORM = ("billiard", "hit_and_run")   # the uniform samplers, in the order they are judged
 GROWS_MUS = (0.01, 0.1)   # the hypothesis: eta grows with n where indeterminacy percolates
 INTENSIVE_MU = 1.0        # ... and is size-independent at mu = INTENSIVE_MU
@@ -479,13 +482,8 @@ def summarize(results: list[dict], out) -> dict:
     for mu, keys in sorted(((info.get("config") or {}).get("protocol_by_mu") or {}).items()):
         text += (f"\n\nAt mu = {float(mu):g} every size is jammed with "
                  + ", ".join(f"{k} = {v:g}" for k, v in keys.items()) + " instead of the "
-                 "scene's own value: at the scene's 1e-6 the truncated contact solve keeps "
-                 "the mu = 1 jams at n >= 2000 creeping (n = 2000, seed 1: 83 600 steps, "
-                 "window speeds up to 4e3 x the rest tolerance; resumed from its checkpoint "
-                 "at 1e-8 it comes to rest in 2-3 windows). The change is validated against "
-                 "the scene as shipped at n = 200, 400 and 800 over 10 seeds: no difference "
-                 "in z, packing fraction, rattler fraction or dim S / Nc "
-                 "(studies/protocol_validation_tolerance_mu1.md).")
+                 "scene's own value" + (f": {PROTOCOL_WHY[float(mu)]}"
+                                        if float(mu) in PROTOCOL_WHY else "") + ".")
     text += restarts_note(rows)
     if rows:
         text += ("\n\nPackings per (mu, n) and what entered the fits (converged runs with eta "
