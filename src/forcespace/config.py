@@ -33,6 +33,9 @@ SWEEP_LIVE_TOL = 1e-12      # [1] a null vector with frontier weight below this 
 IMPLICIT_TOL = 1e-9         # [<Fn>] an inequality whose slack never exceeds this on S is an
                             # implicit equality (a contact forced to slide or to carry nothing)
 VARY_TOL = 1e-6             # [<Fn>] a contact varies in S if its fn or ft can change by more
+                            # than this within S
+REDUCED_LP_MAX_DIM = 200    # [dimensions] up to this dim S, the range LPs of the varying test
+                            # are asked in the affine hull's d coordinates, not the 2m forces
 UNBOUNDED_TOL = 1e-7        # [1] recession-cone LP optimum above this: S is unbounded
 INTERIOR_TOL = 1e-10        # [<Fn>] feasibility/optimality of the interior-point LPs without
                             # crossover that large analyses use (SWEEP_MIN_COLUMNS and up)

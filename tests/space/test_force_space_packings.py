@@ -132,13 +132,18 @@ def test_varying_contacts_by_few_lps_match_the_full_range_table(name, height, mo
     P, s = unit_problem(prob)
     every = np.arange(P.n_contacts)
     exact = np.maximum(np.ptp(full.fn_range, axis=1), np.ptp(full.ft_range, axis=1)) / s
-    calls.clear()
-    w = F._lp_widths(P, every, config.VARY_TOL, points=(full.centre / s,))
-    assert len(calls) < 4 * P.n_contacts              # fewer than the full table
-    ran = w <= config.VARY_TOL
-    # a trusted point misses S by <= TRUSTED_POINT * VARY_TOL and moved constant contacts
-    # by about as much (1.06e-8 at mu = 10): widths agree to 10x that, decisions exactly
-    slack = 10 * F.TRUSTED_POINT * config.VARY_TOL
-    np.testing.assert_allclose(w[ran], exact[ran], atol=slack)
-    assert np.all(exact[~ran] >= w[~ran] - slack) and np.all(w[~ran] > config.VARY_TOL)
-    np.testing.assert_array_equal(w > config.VARY_TOL, exact > config.VARY_TOL)
+    # in 2m unknowns from the centre, and in the affine hull's d coordinates (the LPs of
+    # analyses with dim S <= REDUCED_LP_MAX_DIM) from the affine point and the centre
+    for points, hull in (((full.centre / s,), None),
+                         ((full.affine_point / s, full.centre / s), full.affine_basis)):
+        calls.clear()
+        w = F._lp_widths(P, every, config.VARY_TOL, points=points, hull=hull)
+        assert len(calls) < 4 * P.n_contacts              # fewer than the full table
+        ran = w <= config.VARY_TOL
+        # a trusted point misses S by <= TRUSTED_POINT * VARY_TOL and moved constant
+        # contacts by about as much (1.06e-8 at mu = 10): widths agree to 10x that,
+        # decisions exactly
+        slack = 10 * F.TRUSTED_POINT * config.VARY_TOL
+        np.testing.assert_allclose(w[ran], exact[ran], atol=slack)
+        assert np.all(exact[~ran] >= w[~ran] - slack) and np.all(w[~ran] > config.VARY_TOL)
+        np.testing.assert_array_equal(w > config.VARY_TOL, exact > config.VARY_TOL)

@@ -193,7 +193,8 @@ def _varying(problem: StaticsProblem, N, max_sum_fn, radius, ranges=None,
             width = np.maximum(np.ptp(rng_fn[undecided], axis=1),
                                np.ptp(rng_ft[undecided], axis=1))
         else:
-            width = _lp_widths(problem, undecided, config.VARY_TOL, points)
+            width = _lp_widths(problem, undecided, config.VARY_TOL, points,
+                               hull=N if points else None)
         varying[undecided] = ~(width <= config.VARY_TOL)   # unbounded (inf) or NaN-free wide: varies
     return varying
 
@@ -201,7 +202,8 @@ def _varying(problem: StaticsProblem, N, max_sum_fn, radius, ranges=None,
 TRUSTED_POINT = 1e-2   # a point of S that spares LPs violates S by at most this x VARY_TOL
 
 
-def _lp_widths(problem: StaticsProblem, contacts, tol: float, points=()) -> np.ndarray:
+def _lp_widths(problem: StaticsProblem, contacts, tol: float, points=(),
+               hull=None) -> np.ndarray:
     """Force range of each of ``contacts`` (k,) over S: max of its fn and ft ranges [F0],
     by LP, solving only what the decision "range > ``tol``" needs.
 
@@ -217,11 +219,20 @@ def _lp_widths(problem: StaticsProblem, contacts, tol: float, points=()) -> np.n
     is unbounded along the contact. The decisions are those of the full table; at 2000
     disks with a thin S (most contacts undecided by the ball test) it replaced ~4000 LPs
     (hours) by a handful.
+
+    ``hull``: N (2m, d), an orthonormal basis of S's affine hull through ``points[0]``.
+    Where d <= ``config.REDUCED_LP_MAX_DIM`` the LPs are asked in the hull's coordinates
+    (:class:`_HullLP`: d unknowns instead of 2m; S lies in its hull), which at mu = 1
+    (thin S, few dimensions, most contacts undecided) is what the analysis spends its
+    time on.
     """
     G, _, _ = problem.inequalities()
     lo, hi = problem.bounds()
     bnds = bounds_list(lo, hi)
     m2 = problem.n_columns
+    extreme = (_HullLP(problem, hull, points).extreme
+               if hull is not None and hull.shape[1] <= config.REDUCED_LP_MAX_DIM
+               else lambda col, sgn: _column_extreme(problem, G, bnds, col, sgn))
     seen_lo, seen_hi = np.full(m2, np.inf), np.full(m2, -np.inf)
     trusted = TRUSTED_POINT * tol
 
@@ -246,7 +257,7 @@ def _lp_widths(problem: StaticsProblem, contacts, tol: float, points=()) -> np.n
             for sgn in (1.0, -1.0):
                 if unbounded or spread(j) > tol:
                     break
-                value, x = _column_extreme(problem, G, bnds, col, sgn)
+                value, x = extreme(col, sgn)
                 if x is None:            # unbounded in this direction
                     unbounded = True
                     break
@@ -256,6 +267,44 @@ def _lp_widths(problem: StaticsProblem, contacts, tol: float, points=()) -> np.n
                 see(x)
         width[k] = np.inf if unbounded else spread(j)
     return width
+
+
+class _HullLP:
+    """min / max of one column over S as an LP in the coordinates y (d,) of S's affine
+    hull, x = x0 + N y: the inequalities and the bounds fn >= 0 become H y <= h;
+    equilibrium, the fixed columns and the implicit equalities hold by construction.
+    x0: of ``points`` (the first on the hull, the others projected onto it), the one
+    that violates S least (the Chebyshev centre, where given). Its own violation (LP
+    round-off, up to HiGHS' 1e-7 at mu = 1) is forgiven: h >= 0, so y = 0 is feasible
+    and S is widened by at most that violation, the tolerance the LPs in 2m unknowns
+    work to. Rows constant on the hull (|row| <= FLAT_ROW) are dropped.
+    ``extreme(col, sgn)`` is :func:`_column_extreme`'s contract."""
+
+    def __init__(self, problem: StaticsProblem, N, points):
+        G, _, _ = problem.inequalities()
+        lo, _ = problem.bounds()
+        N = np.asarray(N, float)
+        xa = np.asarray(points[0], float)
+        on_hull = [xa] + [xa + N @ (N.T @ (np.asarray(x, float) - xa))
+                          for x in points[1:] if x is not None]
+        x0 = min(on_hull, key=problem.violation)
+        low = np.flatnonzero(np.isfinite(lo))    # fn >= 0 (fixed columns: flat rows)
+        H = np.vstack([np.asarray(G @ N), -N[low]])
+        h = np.concatenate([-(G @ x0), x0[low] - lo[low]])
+        keep = np.linalg.norm(H, axis=1) > config.FLAT_ROW
+        self.N, self.x0 = N, x0
+        self.H, self.h = H[keep], np.maximum(h[keep], 0.0)
+
+    def extreme(self, col: int, sgn: float):
+        res = solve_lp(sgn * self.N[col], self.H, self.h, bounds=(None, None),
+                       known_feasible=True)
+        if res.status == 3:
+            return -sgn * np.inf, None
+        if res.status != 0:
+            raise NumericalError(f"range LP for column {col} (hull coordinates) failed: "
+                                 f"{res.message}")
+        x = self.x0 + self.N @ res.x
+        return x[col], x
 
 
 def _column_extreme(problem: StaticsProblem, G, bnds, col: int, sgn: float):
