@@ -1,6 +1,7 @@
 """What several studies share: packings jammed once per study directory."""
 from __future__ import annotations
 
+import inspect
 import math
 import time
 from pathlib import Path
@@ -93,7 +94,7 @@ def sampler(name: str, seed: int, cap: int, max_seconds, **options):
                **options)
 
 
-def run_samplers(row: dict, runs, prob, wd, tag: str = "") -> dict:
+def run_samplers(row: dict, runs, prob, wd, tag: str = "", analysis=None) -> dict:
     """Run each (name, sampler) of ``runs`` on ``prob`` into ``wd/NAME{tag}.h5`` and add
     to ``row``: eta_NAME (every run's), converged_NAME (rule 4: finished with bulk and
     tail ESS >= 100 and R-hat <= 1.05 on every tracked statistic), n_NAME, ess_NAME,
@@ -107,7 +108,9 @@ def run_samplers(row: dict, runs, prob, wd, tag: str = "") -> dict:
         out[name] = None
         t0 = time.perf_counter()
         try:
-            ens = smp.compute(prob, output=Path(wd) / f"{name}{tag}.h5").ensemble
+            given = ({"analysis": analysis} if analysis is not None and "analysis"
+                     in inspect.signature(smp.compute).parameters else {})
+            ens = smp.compute(prob, output=Path(wd) / f"{name}{tag}.h5", **given).ensemble
         except ForcespaceError as exc:
             row.update({f"eta_{name}": None, f"converged_{name}": False,
                         f"error_{name}": f"{type(exc).__name__}: {exc}",

@@ -111,7 +111,7 @@ def packing_task(scene: str, n_disks: int, slice_height: float, mu: float, seed:
         determinate(row)
     elif not an.dim:
         determinate(row, ("hit_and_run",))
-    run_samplers(row, runs, prob, wd, tag)
+    run_samplers(row, runs, prob, wd, tag, analysis=an)
     return {"rows": [row]}
 
 

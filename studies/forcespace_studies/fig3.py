@@ -103,11 +103,11 @@ def packing_task(scene: str, n_disks: int, slice_height: float, cap: int, mu: fl
     x0 = prob.x_jammed
     row.update(_sections(prob, an, x0, seed))
     ens = run_samplers(row, [(k, sampler(k, seed, cap, max_seconds)) for k in SAMPLERS],
-                       prob, wd)
+                       prob, wd, analysis=an)
     null_row: dict = {}
     ens.update({"null": run_samplers(null_row, [("hit_and_run", sampler(
         "hit_and_run", seed + NULL_SEED_OFFSET, cap, max_seconds))], prob, wd,
-        "_null").get("hit_and_run")})
+        "_null", analysis=an).get("hit_and_run")})
     row.update({k.replace("hit_and_run", "null"): v for k, v in null_row.items()})
     X = {k: e.samples for k, e in ens.items() if e is not None and e.n_samples >= 2}
     for a in SAMPLERS:

@@ -221,7 +221,7 @@ def packing_task(scene: str, n_disks: int, mu: float, seed: int, workdir, caps: 
                 row[f"eta_window_{k}"] = 0.0
         return row
     runs = [(k, sampler(k, seed, caps[k], max_seconds)) for k in names]
-    ens = run_samplers(row, runs, prob, wd)
+    ens = run_samplers(row, runs, prob, wd, analysis=an)
     for k, e in ens.items():
         if e is not None and win is not None and win.size and e.n_samples >= 2:
             cols = np.stack([2 * win, 2 * win + 1], 1).ravel()

@@ -691,3 +691,31 @@ def test_selection_binomial_helpers():
     assert majority_call(9, 10) == "most" and majority_call(8, 10) == "undecided"
     assert majority_call(0, 10) == "few" and majority_call(5, 10) == "undecided"
     assert packings_to_decide(5, 10) is None and packings_to_decide(3, 3) == 6
+
+
+def test_samplers_given_the_tasks_analysis_sample_the_same_chain_without_a_second_one(
+        tmp_path, monkeypatch):
+    # run_samplers hands the task's ForceSpace to billiard and hit-and-run: their frame is
+    # built from it (the LPs are deterministic, so the chains are bit-identical to those
+    # that analyse S themselves) and S is analysed once, not once per sampler
+    import forcespace as fs
+    from ensemble_cases import lattice_rows
+    from forcespace_studies.common import run_samplers, sampler
+    from forcespace.space import force_space as F
+
+    _, prob = lattice_rows(3, 2, 0.5)
+    an = fs.ForceSpace().compute(prob)
+    own, given = {}, {}
+    names = ("billiard", "hit_and_run")
+    ens_own = run_samplers(own, [(k, sampler(k, 4, 300, None)) for k in names], prob,
+                           tmp_path, "_own")
+    calls = []
+    real = F._analyze
+    monkeypatch.setattr(F, "_analyze", lambda *a, **k: calls.append(1) or real(*a, **k))
+    ens_given = run_samplers(given, [(k, sampler(k, 4, 300, None)) for k in names], prob,
+                             tmp_path, "_given", analysis=an)
+    assert calls == []
+    for k in names:
+        assert ens_own[k].n_samples == ens_given[k].n_samples > 0
+        np.testing.assert_array_equal(ens_own[k].samples, ens_given[k].samples)
+        assert own[f"eta_{k}"] == given[f"eta_{k}"]
