@@ -1,8 +1,9 @@
 """Exact-analysis benchmark (issue 22): ``forcespace analyze --slice H`` on the committed
-5000-disk packing (studies/big_slice/) cut at several heights, and on the 200-disk paper
-packing, new code beside the code as it was when the issue was filed (commit 938734f,
-exported from git and run from its sources), alternating which goes first, in CPU seconds
-(user + sys of the child process, getrusage).
+5000-disk packing (studies/big_slice/) cut at several heights, on the 200-disk paper
+packing and on an 800-disk mu = 1 packing (a thin S), new code beside the code as it was
+when the issue was filed (commit 938734f; the thin case beside 021aa83, before its range
+LPs moved to the affine hull's coordinates), exported from git and run from its sources,
+alternating which goes first, in CPU seconds (user + sys of the child process, getrusage).
 
 Each command runs once untimed first (numba caches, file cache), then ``--rounds`` times
 per code; the figure is the median. Every timed run must report the same dim S and the
@@ -59,15 +60,26 @@ def analyze_cpu(src: Path | None, packing: Path, height: float) -> dict:
 HEIGHTS = (50.0, 80.0, 140.0)   # [R] slices of the 5000-disk packing: dim S 537, 953, 1714
 
 
-def cases(heights) -> list[tuple[str, Path, float]]:
+# a thin S: mu = 1, n = 800, the size study's scaled slice (dim S 11 of 620 contacts, most
+# contacts decided by range LPs), against the code before those LPs were asked in the
+# affine hull's coordinates (OLD_COMMIT's analysis fails on it: its Chebyshev-centre LP)
+THIN = ("paper_fast mu1 n800 slice 56", "studies/packings/paper_fast_n800_mu1_s1.h5", 56.0)
+THIN_OLD_COMMIT = "021aa83"
+
+
+def cases(heights) -> list[tuple[str, Path, float, str]]:
+    """(name, packing, slice height [R], old commit) of each case."""
     big = Path(PACKINGS[5000])
-    return [("paper_mu0.1 n200 slice 28", Path(PACKINGS[200]), 28.0)] + [
-        (f"paper_fast n5000 slice {h:g}", big, h) for h in heights]
+    return [("paper_mu0.1 n200 slice 28", Path(PACKINGS[200]), 28.0, OLD_COMMIT),
+            (THIN[0], Path(THIN[1]), THIN[2], THIN_OLD_COMMIT)] + [
+        (f"paper_fast n5000 slice {h:g}", big, h, OLD_COMMIT) for h in heights]
 
 
-def bench(old_src: Path, rounds: int, heights=HEIGHTS) -> list[dict]:
+def bench(old_srcs: dict, rounds: int, heights=HEIGHTS) -> list[dict]:
+    """``old_srcs``: {commit: its exported sources}."""
     rows = []
-    for name, packing, height in cases(heights):
+    for name, packing, height, commit in cases(heights):
+        old_src = old_srcs[commit]
         for src in (None, old_src):                  # untimed: caches warm
             analyze_cpu(src, packing, height)
         runs = {"new": [], "old": []}
@@ -76,7 +88,8 @@ def bench(old_src: Path, rounds: int, heights=HEIGHTS) -> list[dict]:
             for which in order:
                 runs[which].append(analyze_cpu(None if which == "new" else old_src,
                                                packing, height))
-        row = {"case": name, "packing": str(packing), "slice_height": height}
+        row = {"case": name, "packing": str(packing), "slice_height": height,
+               "old_commit": commit}
         for which, rs in runs.items():
             row[which] = {"cpu_s": float(np.median([r["cpu_s"] for r in rs])),
                           "cpu_s_runs": [r["cpu_s"] for r in rs],
@@ -114,9 +127,13 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     heights = tuple(float(h) for h in a.heights.split(","))
     a.out.mkdir(parents=True, exist_ok=True)
-    old_src = a.old_src or old_sources(Path.cwd(), a.out / f"old_engine_{OLD_COMMIT}")
-    log(f"analyze --slice, new against {OLD_COMMIT}, {a.rounds} rounds, CPU s ...")
-    rows = bench(old_src, a.rounds, heights)
+    here = Path.cwd()
+    old_srcs = {OLD_COMMIT: a.old_src or old_sources(here, a.out / f"old_engine_{OLD_COMMIT}"),
+                THIN_OLD_COMMIT: old_sources(here, a.out / f"old_code_{THIN_OLD_COMMIT}",
+                                             THIN_OLD_COMMIT)}
+    log(f"analyze --slice, new against {OLD_COMMIT} ({THIN_OLD_COMMIT} on the thin case), "
+        f"{a.rounds} rounds, CPU s ...")
+    rows = bench(old_srcs, a.rounds, heights)
     merge_analysis(a.out / "bench.json", {
         "old_commit": OLD_COMMIT, "machine": platform.platform(), "cpu_count": os.cpu_count(),
         "timing": "CPU (user + sys) of the child process, median of the rounds",

@@ -327,12 +327,12 @@ def exponent(rows, which: str, key: str = "cpu_s"):
     return float(np.polyfit(x, y, 1)[0])
 
 
-def old_sources(repo: Path, dest: Path) -> Path:
-    """The sources (src/, inputs/) of OLD_COMMIT exported from ``repo``'s git."""
-    if (dest / "src" / "forcespace" / "nlgs.py").is_file():
+def old_sources(repo: Path, dest: Path, commit: str = OLD_COMMIT) -> Path:
+    """The sources (src/, inputs/) of ``commit`` exported from ``repo``'s git."""
+    if (dest / "src" / "forcespace" / "__init__.py").is_file():
         return dest
     dest.mkdir(parents=True, exist_ok=True)
-    archive = subprocess.run(["git", "-C", str(repo), "archive", OLD_COMMIT, "src", "inputs"],
+    archive = subprocess.run(["git", "-C", str(repo), "archive", commit, "src", "inputs"],
                              capture_output=True, check=True).stdout
     subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
     return dest
