@@ -275,9 +275,10 @@ class _HullLP:
     equilibrium, the fixed columns and the implicit equalities hold by construction.
     x0: of ``points`` (the first on the hull, the others projected onto it), the one
     that violates S least (the Chebyshev centre, where given). Its own violation (LP
-    round-off, up to HiGHS' 1e-7 at mu = 1) is forgiven: h >= 0, so y = 0 is feasible
-    and S is widened by at most that violation, the tolerance the LPs in 2m unknowns
-    work to. Rows constant on the hull (|row| <= FLAT_ROW) are dropped.
+    round-off: the affine point of an n = 800, mu = 1 slice misses S by 2e-7 <Fn>) is
+    forgiven: h >= 0, so y = 0 is feasible and S is widened by at most that violation,
+    the order of the 1e-7 tolerance HiGHS works to in the LPs in 2m unknowns. Rows
+    constant on the hull (|row| <= FLAT_ROW) are dropped.
     ``extreme(col, sgn)`` is :func:`_column_extreme`'s contract."""
 
     def __init__(self, problem: StaticsProblem, N, points):
