@@ -271,8 +271,10 @@ def _lp_widths(problem: StaticsProblem, contacts, tol: float, points=(),
 
 class _HullLP:
     """min / max of one column over S as an LP in the coordinates y (d,) of S's affine
-    hull, x = x0 + N y: the inequalities and the bounds fn >= 0 become H y <= h;
-    equilibrium, the fixed columns and the implicit equalities hold by construction.
+    hull, x = x0 + N y: the inequalities G x <= 0 become H y <= h (they imply fn >= 0:
+    -2 mu fn <= 0 is the sum of a contact's two Coulomb rows, -fn <= 0 its row at
+    mu = 0; the frame of the samplers uses them alone too); equilibrium, the fixed
+    columns and the implicit equalities hold by construction.
     x0: of ``points`` (the first on the hull, the others projected onto it), the one
     that violates S least (the Chebyshev centre, where given). Its own violation (LP
     round-off: the affine point of an n = 800, mu = 1 slice misses S by 2e-7 <Fn>) is
@@ -283,15 +285,12 @@ class _HullLP:
 
     def __init__(self, problem: StaticsProblem, N, points):
         G, _, _ = problem.inequalities()
-        lo, _ = problem.bounds()
         N = np.asarray(N, float)
         xa = np.asarray(points[0], float)
         on_hull = [xa] + [xa + N @ (N.T @ (np.asarray(x, float) - xa))
                           for x in points[1:] if x is not None]
         x0 = min(on_hull, key=problem.violation)
-        low = np.flatnonzero(np.isfinite(lo))    # fn >= 0 (fixed columns: flat rows)
-        H = np.vstack([np.asarray(G @ N), -N[low]])
-        h = np.concatenate([-(G @ x0), x0[low] - lo[low]])
+        H, h = np.asarray(G @ N), -(G @ x0)
         keep = np.linalg.norm(H, axis=1) > config.FLAT_ROW
         self.N, self.x0 = N, x0
         self.H, self.h = H[keep], np.maximum(h[keep], 0.0)
