@@ -383,10 +383,11 @@ def eta_points(rows, mu, k, scope="slice"):
 def counts(rows, mu, n, k) -> dict:
     """Packings at (n, mu) and what sampler k made of them: converged (entering the
     verdicts), excluded (sampled, not converged or capped: rule 4), failed (the run
-    raised), not run (analysis failed, or hit-and-run above its largest n)."""
+    raised, or the analysis it starts from failed), not run (hit-and-run above its
+    largest n)."""
     here = [r for r in rows if r["mu"] == mu and r["n"] == n]
     conv = sum(1 for r in here if r.get(f"converged_{k}"))
-    fail = sum(1 for r in here if r.get(f"error_{k}"))
+    fail = sum(1 for r in here if r.get(f"error_{k}") or r.get("error_analysis"))
     exc = sum(1 for r in here if r.get(f"eta_{k}") is not None and not r.get(f"converged_{k}")
               and not r.get(f"error_{k}"))
     return {"packings": len(here), "converged": conv, "excluded": exc, "failed": fail,

@@ -532,6 +532,21 @@ def test_size_report_names_the_packings_whose_static_solve_restarted():
     assert size.restarts_note(rows[1:]) == ""
 
 
+def test_size_counts_a_failed_analysis_as_failed_not_as_not_run():
+    from forcespace_studies import size
+
+    rows = [{"mu": 1, "n": 800, "converged_billiard": True, "eta_billiard": 0.01},
+            {"mu": 1, "n": 800, "eta_billiard": 0.02, "converged_billiard": False},
+            {"mu": 1, "n": 800, "error_billiard": "NumericalError: ..."},
+            {"mu": 1, "n": 800, "error_analysis": "range LP failed"},
+            {"mu": 1, "n": 800, "converged_billiard": True, "eta_billiard": 0.0}]
+    assert size.counts(rows, 1, 800, "billiard") == {
+        "packings": 5, "converged": 2, "excluded": 1, "failed": 2, "not_run": 0}
+    # hit-and-run never ran on these (above its largest n) except where analysis failed
+    assert size.counts(rows, 1, 800, "hit_and_run") == {
+        "packings": 5, "converged": 0, "excluded": 0, "failed": 1, "not_run": 4}
+
+
 def test_size_model_comparison_tells_a_power_law_from_saturation():
     from forcespace_studies import size
     n = np.repeat([100.0, 200.0, 400.0, 800.0, 2000.0], 6)
