@@ -309,6 +309,13 @@ def affine_hull(M, rhs, x0, tol_rel=None):
     return vt[r:].T.copy(), x0 - step, r
 
 
+def onto_affine_hull(x, xa, N):
+    """x (k,) projected orthogonally onto the affine hull {xa + N y} (N (k, d)
+    orthonormal): xa + N N^T (x - xa). Exact in equilibrium and the hull's equalities
+    (to round-off); any inequality x satisfied may be violated by the move."""
+    return xa + N @ (N.T @ (np.asarray(x, float) - xa))
+
+
 def project_on_range(M, v):
     """Least-squares projection of v (r,) onto range(M), M (r, k) sparse.
 

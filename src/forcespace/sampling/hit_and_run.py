@@ -43,6 +43,7 @@ import numpy as np
 from .. import config
 from ..errors import InputError, NumericalError, require_int
 from ..kernels import kernel
+from ..linalg import onto_affine_hull
 from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
 from ..space.force_space import ForceSpace
@@ -156,7 +157,7 @@ def frame(problem: StaticsProblem, analysis=None):
     free = np.setdiff1d(np.arange(G.shape[0]), an.implicit_rows)
     N = an.affine_basis
     # centre projected exactly onto the affine hull through the affine point
-    xc = an.affine_point + N @ (N.T @ (an.centre - an.affine_point))
+    xc = onto_affine_hull(an.centre, an.affine_point, N)
     H0 = np.asarray(G[free] @ N)
     s0 = -np.asarray(G[free] @ xc)
     # rows orthogonal to the affine hull up to round-off are constant on S: with a slack

@@ -18,7 +18,7 @@ import scipy.sparse as sp
 
 from .. import config
 from ..errors import InputError, NumericalError
-from ..linalg import affine_hull, null_basis, rank
+from ..linalg import affine_hull, null_basis, onto_affine_hull, rank
 from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
 from ..result import Computed
@@ -287,8 +287,7 @@ class _HullLP:
         G, _, _ = problem.inequalities()
         N = np.asarray(N, float)
         xa = np.asarray(points[0], float)
-        on_hull = [xa] + [xa + N @ (N.T @ (np.asarray(x, float) - xa))
-                          for x in points[1:] if x is not None]
+        on_hull = [xa] + [onto_affine_hull(x, xa, N) for x in points[1:] if x is not None]
         x0 = min(on_hull, key=problem.violation)
         H, h = np.asarray(G @ N), -(G @ x0)
         keep = np.linalg.norm(H, axis=1) > config.FLAT_ROW

@@ -13,6 +13,7 @@ from scipy.optimize import linprog
 
 from .. import config
 from ..errors import InputError
+from ..linalg import onto_affine_hull
 from ..model.problem import StaticsProblem
 from ..result import Computed
 from ..streams import direction_generator
@@ -55,7 +56,7 @@ class Section(Computed):
                              "cross-section", got=N.shape[1])
         self._start()
         x0 = problem.x_jammed if x0 is None else np.asarray(x0, float)
-        x0 = S.affine_point + N @ (N.T @ (x0 - S.affine_point))     # onto the hull
+        x0 = onto_affine_hull(x0, S.affine_point, N)
         if directions is None:
             c = direction_generator(self.seed).normal(size=(N.shape[1], 2))
             D = np.linalg.qr(N @ c)[0]
