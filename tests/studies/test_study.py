@@ -542,7 +542,7 @@ def test_size_counts_a_failed_analysis_as_failed_not_as_not_run():
             {"mu": 1, "n": 800, "converged_billiard": True, "eta_billiard": 0.0}]
     assert size.counts(rows, 1, 800, "billiard") == {
         "packings": 5, "converged": 2, "excluded": 1, "failed": 2, "not_run": 0}
-    # hit-and-run never ran on these (above its largest n) except where analysis failed
+    # hit-and-run did not run at this n (above its largest): the failed analysis is its one failure
     assert size.counts(rows, 1, 800, "hit_and_run") == {
         "packings": 5, "converged": 0, "excluded": 0, "failed": 1, "not_run": 4}
 
