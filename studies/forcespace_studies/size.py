@@ -386,10 +386,13 @@ def counts(rows, mu, n, k) -> dict:
     raised, or the analysis it starts from failed), not run (hit-and-run above its
     largest n)."""
     here = [r for r in rows if r["mu"] == mu and r["n"] == n]
+
+    def failed(r):
+        return bool(r.get(f"error_{k}") or r.get("error_analysis"))
     conv = sum(1 for r in here if r.get(f"converged_{k}"))
-    fail = sum(1 for r in here if r.get(f"error_{k}") or r.get("error_analysis"))
+    fail = sum(1 for r in here if failed(r))
     exc = sum(1 for r in here if r.get(f"eta_{k}") is not None and not r.get(f"converged_{k}")
-              and not r.get(f"error_{k}"))
+              and not failed(r))
     return {"packings": len(here), "converged": conv, "excluded": exc, "failed": fail,
             "not_run": len(here) - conv - exc - fail}
 
