@@ -329,13 +329,19 @@ def _study_seconds(study_dir: Path) -> dict:
     return {"worker_seconds": wall, "cpu_seconds": cpu, "cpu_tasks": cpu_tasks}
 
 
+def _minutes(seconds: float) -> str:
+    """Minutes to two significant figures below 10 ("1.4", "0.3"), whole above ("541")."""
+    m = float(seconds) / 60
+    return f"{m:.1f}" if m < 9.95 else f"{m:.0f}"
+
+
 def _time_text(doc: dict) -> str:
     """ "W worker-minutes of tasks" (wall), with the CPU minutes of those that recorded
     them: of all, or "C CPU-minutes on K of them"."""
-    text = f"{float(doc['worker_seconds']) / 60:.0f} worker-minutes of tasks"
+    text = f"{_minutes(doc['worker_seconds'])} worker-minutes of tasks"
     k, done = doc.get("cpu_tasks") or 0, doc.get("tasks_done")
     if k:
-        cpu = f"{float(doc['cpu_seconds']) / 60:.0f} CPU-minutes"
+        cpu = f"{_minutes(doc['cpu_seconds'])} CPU-minutes"
         text += f", {cpu}" if k == done else f"; {cpu} on the {k} that recorded CPU time"
     return text
 

@@ -202,12 +202,12 @@ def test_report_says_how_much_of_the_plan_a_study_has_run(tmp_path):
     write_report([out], tmp_path / "REPORT.md")
     for rep in (out / "REPORT.md", tmp_path / "REPORT.md"):
         text = rep.read_text()
-        assert ("3 tasks; 4 worker-minutes of tasks; 2 CPU-minutes on the 2 that recorded "
+        assert ("3 tasks; 4.0 worker-minutes of tasks; 1.5 CPU-minutes on the 2 that recorded "
                 "CPU time" in text) and "partial" not in text
     (out / "tasks" / "a.json").write_text(json.dumps({"wall_seconds": 120.0,
                                                       "cpu_seconds": 90.0}))
     write_section(out, "fig1", "T", "text", [], {}, [])
-    assert "3 tasks; 4 worker-minutes of tasks, 3 CPU-minutes)" in (out / "REPORT.md").read_text()
+    assert "3 tasks; 4.0 worker-minutes of tasks, 3.0 CPU-minutes)" in (out / "REPORT.md").read_text()
 
 
 def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
