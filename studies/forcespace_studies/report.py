@@ -330,7 +330,7 @@ def _study_seconds(study_dir: Path) -> dict:
 
 
 def _minutes(seconds: float) -> str:
-    """Minutes to two significant figures below 10 ("1.4", "0.3"), whole above ("541")."""
+    """Minutes with one decimal below 10 ("1.4", "0.3"), whole above ("541")."""
     m = float(seconds) / 60
     return f"{m:.1f}" if m < 9.95 else f"{m:.0f}"
 

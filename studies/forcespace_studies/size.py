@@ -56,8 +56,8 @@ QUICK = dict(scene="quick", sizes=(40, 50, 60), mus=(0.1,), seeds=2,
              clusters_max_dim=400)
 # FULL: the paper's protocol with the fast sweep (inputs/paper_fast.toml: same physics,
 # runs of contacts + over-relaxation) at every size; seeds_by_size: fewer packings where
-# a jam costs most (n = 5000: ~750 CPU s per jam at mu = 0.1, ~70 CPU-min at mu = 1 with
-# its tighter contact solve; the issue's >= 4 packings).
+# a jam costs most (n = 5000: ~750 CPU s per jam at mu = 0.1, 53-133 CPU-min at mu = 1
+# with its tighter contact solve, 4 jams; the issue's >= 4 packings).
 FULL = dict(scene="paper_fast", sizes=(100, 200, 400, 800, 2000, 5000), mus=(0.01, 0.1, 1.0),
             seeds=10, seeds_by_size={5000: 4}, caps={"billiard": 20000, "hit_and_run": 3000},
             max_seconds=900.0, har_max_n=400, clusters_max_dim=60,
@@ -778,7 +778,7 @@ def _text(rows, fits, mus) -> str:
         f"from the scene's n0 (paper: 42 R and 28 R at n0 = 200; here {small['width']:.3g} "
         f"R and {small['slice_height']:.3g} R at n = {small['n']}), so the slice holds the "
         f"same share of the disks. Packings per size: {params_seeds(rows)} (fewer at the "
-        f"largest n, where one jam costs ~750 CPU s at mu = 0.1 and ~70 CPU-min at mu = 1 "
+        f"largest n, where one jam costs ~750 CPU s at mu = 0.1 and 1-2 CPU-h at mu = 1 "
         f"with its tighter contact solve).\n\n"
         f"eta is the uniform measure's: the billiard walk at every size and coordinate "
         f"hit-and-run (the reference) at n = {', '.join(map(str, har)) or '-'}; each runs 4 "
