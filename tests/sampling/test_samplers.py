@@ -130,7 +130,8 @@ def test_unbounded_S_is_never_sampled(tmp_path, cls):
 def test_rows_constant_on_the_affine_hull_are_dropped_from_the_frame(monkeypatch):
     """A row orthogonal to S's affine hull with a slack of -1e-13 <Fn> (an implicit
     equality the LP test missed, as on an 800-disk mu = 1 slice) must leave the
-    hit-and-run frame: kept, it stops the rounding."""
+    hit-and-run frame: kept, its slack stops the rounding, and the frame has to widen S
+    by round-off (sampling.hit_and_run._widening) to start."""
     import scipy.sparse as sp
 
     _, prob = grooves(THETAS, MU)
@@ -143,15 +144,18 @@ def test_rows_constant_on_the_affine_hull_are_dropped_from_the_frame(monkeypatch
     row = sp.csr_matrix(g + shift * an.affine_point / np.linalg.norm(an.affine_point))
     G2 = sp.vstack([G, row]).tocsr()
     monkeypatch.setattr(prob, "_inequalities", (G2, np.append(owner, 0), np.append(kind, 0)))
-    xc, N, H0, s0, free, _ = har.frame(prob, an)
-    assert G.shape[0] not in free and np.abs(G2[-1] @ N).max() <= config.FLAT_ROW
-    y0, L, _ = har.rounding(H0, s0, prob.force_scale)
-    assert np.all(H0 @ (prob.force_scale * y0) <= s0)    # a strictly interior start
-    monkeypatch.setattr(config, "FLAT_ROW", -1.0)           # keep the row: rounding fails
-    xc, N, H0, s0, free, _ = har.frame(prob, an)
-    assert G.shape[0] in free and s0[-1] < 0
+    f = har.frame(prob, an)
+    assert G.shape[0] not in f.free and np.abs(G2[-1] @ f.N).max() <= config.FLAT_ROW
+    assert f.widening == 0
+    y0, L, _ = har.rounding(f.H0, f.s0, prob.force_scale)
+    assert np.all(f.H0 @ (prob.force_scale * y0) <= f.s0)    # a strictly interior start
+    monkeypatch.setattr(config, "FLAT_ROW", -1.0)     # keep the row: the frame must widen S
+    f = har.frame(prob, an)
+    assert G.shape[0] in f.free and f.widening >= config.FRAME_MARGIN
+    raw = f.s0 - f.widening * prob.force_scale
+    assert raw[-1] < 0
     with pytest.raises(InputError, match="strictly inside"):
-        har.rounding(H0, s0, prob.force_scale)
+        har.rounding(f.H0, raw, prob.force_scale)
 
 
 def test_burn_in_in_chunks_is_the_same_walk(monkeypatch):

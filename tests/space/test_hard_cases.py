@@ -216,16 +216,12 @@ def test_a_chebyshev_lp_that_highs_cannot_settle_is_solved_in_the_hull():
     assert eta[0] == pytest.approx(eta[1], rel=0.1)
 
 
-def test_a_centre_a_round_off_outside_a_facet_is_recentred_in_the_frame():
-    """Size study, n = 800, mu = 1: the Chebyshev centre, projected onto the affine hull,
-    lay 1e-10 <Fn> outside a facet and the billiard walk's rounding refused it. Here the
-    centre handed to the frame is a vertex of the two-groove rectangle pushed 1e-10 <Fn>
-    outside: the frame recentres in its own coordinates, at the rectangle's centre line
-    (slack half the shorter side on the two nearest facets), and the walk starts."""
+def _rectangle_centred_outside():
+    """(problem, analysis, the analysis with its centre at a vertex of S pushed 1e-10 <Fn>
+    outside): the two-groove rectangle (S a product of two intervals)."""
     from types import SimpleNamespace
 
     from ensemble_cases import grooves
-    from forcespace.sampling.hit_and_run import frame
     from forcespace.space.loads import extreme_point
     _, prob = grooves([np.pi / 6, np.pi / 5], 0.3)
     an = ForceSpace().compute(prob)
@@ -236,11 +232,75 @@ def test_a_centre_a_round_off_outside_a_facet_is_recentred_in_the_frame():
     fake = SimpleNamespace(**{k: getattr(an, k) for k in (
         "success", "feasible", "bounded", "implicit_rows", "affine_basis", "affine_point")},
         centre=out, message="")
-    xc, N, H0, s0, _, _ = frame(prob, fake)
-    assert s0.min() > 0 and prob.violation(xc) <= 1e-12
-    assert (s0 / np.linalg.norm(H0, axis=1)).min() == pytest.approx(an.radius, rel=1e-6)
+    return prob, an, fake
+
+
+def test_a_centre_a_round_off_outside_a_facet_is_recentred_in_the_frame():
+    """Size study, n = 800, mu = 1: the Chebyshev centre, projected onto the affine hull,
+    lay 1e-10 <Fn> outside a facet and the billiard walk's rounding refused it. Here the
+    centre handed to the frame is a vertex of the two-groove rectangle pushed 1e-10 <Fn>
+    outside: the frame recentres in its own coordinates, at the rectangle's centre line
+    (slack half the shorter side on the two nearest facets), and the walk starts."""
+    from forcespace.sampling.hit_and_run import frame
+    prob, an, fake = _rectangle_centred_outside()
+    f = frame(prob, fake)
+    assert f.s0.min() > 0 and prob.violation(f.xc) <= 1e-12 and f.widening == 0
+    assert (f.s0 / np.linalg.norm(f.H0, axis=1)).min() == pytest.approx(an.radius, rel=1e-6)
     b = fs.BilliardWalk(2000, seed=1, target_ess=100).compute(prob, analysis=fake)
     assert b.success and b.ensemble.violations.max() <= 1e-9
+
+
+def _missing_centre(miss):
+    """A stand-in for space.lp.inner_ball whose centre lies ``miss`` <Fn> outside a facet
+    of {H y <= s} (at a vertex, pushed out along one of its rows): HiGHS' answer on a
+    polytope thinner than its tolerances."""
+    from scipy.optimize import linprog
+
+    def inner_ball(H, s, r_max):
+        v = linprog(-np.ones(H.shape[1]), A_ub=H, b_ub=s, bounds=[(None, None)] * H.shape[1],
+                    method="highs").x
+        i = int(np.argmax(H @ v - s))
+        return v + miss * r_max * H[i] / (H[i] @ H[i]), 1e-3 * r_max
+    return inner_ball
+
+
+def test_a_frame_whose_centre_misses_a_thin_S_is_widened_by_the_miss(monkeypatch, tmp_path):
+    """Size study, n = 5000, mu = 1, seed 4: S (dim 38 of 3799 contacts) is ~1e-8 <Fn>
+    thick in one direction and ~1 <Fn> wide in the others; with its implicit rows held
+    exactly no point of the hull is strictly inside, HiGHS' Chebyshev centre in the frame
+    missed a row by 1.6e-8 <Fn>, and the billiard walk refused to start (the task
+    failed). Here that miss (2e-8 <Fn>) is put on the two-groove rectangle: the frame
+    moves every free row out by the miss plus FRAME_MARGIN, the walks start inside the
+    widened frame, every sample lies within the widening of S, and both samplers give
+    the eta of the run without the miss."""
+    from forcespace import config
+    from forcespace.sampling import hit_and_run
+    prob, _, an = _rectangle_centred_outside()
+    exact = fs.HitAndRun(4000, seed=1, target_ess=200).compute(prob).ensemble.eta
+    monkeypatch.setattr(hit_and_run, "inner_ball", _missing_centre(2e-8))
+    f = hit_and_run.frame(prob, an)
+    assert f.widening == pytest.approx(2e-8 + config.FRAME_MARGIN, rel=1e-6)
+    assert f.s0.min() == pytest.approx(config.FRAME_MARGIN * prob.force_scale, rel=1e-6)
+    assert prob.violation(f.xc) == pytest.approx(2e-8, rel=1e-3)
+    runs = [fs.BilliardWalk(4000, seed=2, target_ess=200),
+            fs.HitAndRun(4000, seed=3, target_ess=200)]
+    for k, r in enumerate(runs):
+        r.compute(prob, output=tmp_path / f"{k}.h5", analysis=an)
+        assert r.success and r.frame_widening == f.widening
+        assert r.ensemble.violations.max() <= f.widening + config.SAMPLE_VIOLATION
+        assert f"widening {f.widening:.3g} <Fn>" in \
+            fs.read_ensemble(tmp_path / f"{k}.h5").summary()["tolerance"]
+        assert r.ensemble.eta == pytest.approx(exact, rel=0.1)
+
+
+def test_a_frame_missing_S_by_more_than_round_off_is_refused(monkeypatch):
+    """A miss beyond FRAME_MAX_WIDENING is not round-off: the frame refuses, naming the
+    row and the miss, before any sampling."""
+    from forcespace.sampling import hit_and_run
+    prob, _, an = _rectangle_centred_outside()
+    monkeypatch.setattr(hit_and_run, "inner_ball", _missing_centre(1e-6))
+    with pytest.raises(NumericalError, match=r"misses inequality row \d+ by 1e-06 <Fn>"):
+        fs.BilliardWalk(100, seed=2).compute(prob, analysis=an)
 
 
 def test_a_near_mechanism_counted_as_null_does_not_fail_the_relax_walk():

@@ -68,7 +68,7 @@ from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
 from ..streams import chain_states, start_generator
 from .driver import FrameSampler, Stop, check_target, run_walk
-from .hit_and_run import frame
+from .hit_and_run import frame, widening_note
 from .rounding import lewis_rounding_with_progress
 from .xoshiro import normals, uniform
 
@@ -358,7 +358,8 @@ class _Walk:
     def __init__(self, problem: StaticsProblem, options: dict, analysis, progress: bool):
         t0, c0 = time.perf_counter(), time.process_time()
         self.problem, self.progress = problem, progress
-        self.xc, self.N, self.H0, self.s0, self.free, self.analysis = frame(problem, analysis)
+        (self.xc, self.N, self.H0, self.s0, self.free, self.analysis,
+         self.widening) = frame(problem, analysis)
         self.d = self.N.shape[1]
         self.params = default_params(**options)
         self.times = {"frame_s": time.perf_counter() - t0, "rounding_s": 0.0,
@@ -367,7 +368,8 @@ class _Walk:
                     "burn_in_s": 0.0, "sampling_s": 0.0}
         self.tolerance_description = (
             f"every sample has max violation <= {config.SAMPLE_VIOLATION} relative to <Fn> "
-            "(checked), plus the equilibrium floor of the frame's directions |A T| |w| / <Fn>")
+            "(checked), plus the equilibrium floor of the frame's directions |A T| |w| / <Fn>"
+            + widening_note(self.widening))
         self.kept = []          # w of every sample drawn (the frame floor, computed at the end)
         self.walk = None
 
@@ -451,7 +453,7 @@ class _Walk:
         x = self.xc + self.T @ w.W[c]
         v = self.problem.violation(x)
         if not v <= config.SAMPLE_VIOLATION:     # the floor is computed only when needed
-            allowed = config.SAMPLE_VIOLATION + float(self.floor(w.W[c])[0])
+            allowed = config.SAMPLE_VIOLATION + float(self.floor(w.W[c])[0]) + self.widening
             if not v <= allowed:
                 raise NumericalError(f"billiard sample {i} violates S by {v:.3e} x <Fn> "
                                      f"(> {allowed:.3e})")
@@ -539,6 +541,7 @@ class BilliardWalk(FrameSampler):
             ensemble=ens, dim=walk.d, n_rows=int(walk.H0.shape[0]), params=walk.params,
             times=dict(walk.times, wall_time_s=wall, sampling_s=wall - sum(walk.times.values())),
             cpu=cpu, frame_equality_floor=float(walk.floor(walk.kept).max(initial=0.0)),
+            frame_widening=walk.widening,
             counts={"trajectories": int(t[TRAJ]), "reflections": int(t[REFL]),
                     "discarded": int(t[DISCARDED]),
                     "burn_in_trajectories": int(walk.burn_in_counts[TRAJ]),
@@ -567,6 +570,7 @@ class BilliardWalk(FrameSampler):
         return {"n_samples": ens.n_samples, "dim_S": self.dim, "n_rows": self.n_rows,
                 **self.times, "cpu": self.cpu, "counts": self.counts,
                 "walk": self.walk_info, "frame_equality_floor": self.frame_equality_floor,
+                "frame_widening": self.frame_widening,
                 "max_violation": float(ens.violations.max(initial=0.0)),
                 "params": self.params, "status": self.status, "message": self.message,
                 **ens.diagnostics}

@@ -302,3 +302,9 @@ class FrameSampler(Sampler):
     def frame_equality_floor(self) -> float:
         """Largest equilibrium residual of the frame's directions at a sample, / <Fn>."""
         return self._get("frame_equality_floor")
+
+    @property
+    def frame_widening(self) -> float:
+        """How far [<Fn>] the frame moved every free row out (0 unless S had no point
+        strictly inside in its affine hull): samples lie within it of S."""
+        return self._get("frame_widening")

@@ -37,6 +37,7 @@ averages) and of three fixed random projections; per-chain η.
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -137,8 +138,27 @@ def har_steps(H, s0, w, state, n_steps, coordinate):
 # ----------------------------------------------------------------------------
 
 
-def frame(problem: StaticsProblem, analysis=None):
-    """Affine frame of S: (x_c (2m,), N (2m, d), H0 = G_free N (p, d), s0 (p,), free rows).
+class Frame(NamedTuple):
+    """S in its affine hull: x = xc + N y for the points y of {H0 y <= s0}.
+
+    xc (2m,) [F0] a point of the hull strictly inside every free row (slacks s0 > 0, of
+    the widened rows when ``widening`` > 0);
+    N (2m, d) orthonormal basis of the hull; H0 = G_free N (p, d) [1]; s0 (p,) [F0];
+    free (p,) the rows of ``problem.inequalities()`` kept; analysis the ForceSpace;
+    widening [<Fn>]: 0, or how far every free row was moved out because S, thinner than
+    round-off in a direction its dimension keeps, had no point strictly inside in the
+    hull (:func:`frame`): every sample then lies within ``widening`` of S."""
+    xc: np.ndarray
+    N: np.ndarray
+    H0: np.ndarray
+    s0: np.ndarray
+    free: np.ndarray
+    analysis: object
+    widening: float = 0.0
+
+
+def frame(problem: StaticsProblem, analysis=None) -> Frame:
+    """The affine frame of S (:class:`Frame`).
 
     The free rows are the inequalities that are neither implicit equalities nor
     constant on the affine hull (|G_i N| <= FLAT_ROW)."""
@@ -170,24 +190,51 @@ def frame(problem: StaticsProblem, analysis=None):
                              f"{-s0[bad].min() / problem.force_scale:.3g} <Fn>, and no point "
                              f"of the affine hull satisfies it better")
     H0, s0 = H0[~flat], s0[~flat]
+    widening = 0.0
     if H0.shape[1] and s0.size and s0.min() <= 0:
         # the centre, projected onto the hull, sits on (or a round-off outside) a facet of a
         # thin S: recentre in the frame's own coordinates, where no projection intervenes
         y = _frame_centre(H0, s0, problem)
         xc, s0 = xc + N @ y, s0 - H0 @ y
-    return xc, N, H0, s0, free[~flat], an
+        if s0.min() <= 0:
+            widening = _widening(s0, problem, free[~flat])
+            s0 = s0 + widening * problem.force_scale
+    return Frame(xc, N, H0, s0, free[~flat], an, widening)
 
 
 def _frame_centre(H0, s0, problem) -> np.ndarray:
     """The Chebyshev centre y (d,) of {H0 y <= s0} [F0] (:func:`space.lp.inner_ball`);
-    NumericalError when S has no interior point in its hull (radius 0 or no optimum)."""
+    NumericalError when the LP has no optimum. A radius <= 0 (S thinner than HiGHS'
+    tolerances) is judged by the slacks at y (:func:`_widening`)."""
     ball = inner_ball(H0, s0, problem.force_scale)
-    if ball is None or ball[1] <= 0:
-        radius = float("nan") if ball is None else ball[1] / problem.force_scale
-        raise NumericalError(f"S has no interior point in its affine hull to start from "
-                             f"(Chebyshev radius in the frame {radius:.2g} <Fn>: S is "
-                             f"numerically thinner than its dimension says)")
+    if ball is None:
+        raise NumericalError("S has no interior point in its affine hull to start from "
+                             "(the Chebyshev-centre LP in the frame has no optimum)")
     return ball[0]
+
+
+def _widening(s, problem, rows) -> float:
+    """How far [<Fn>] to move every free row out when the frame's Chebyshev centre misses
+    S by round-off: its largest violation (-min s / <Fn>) plus config.FRAME_MARGIN, the
+    slack the walks start with. Size study, n = 5000, mu = 1, seed 4: S (dim 38) is
+    ~1e-8 <Fn> thick in one direction and ~1 <Fn> wide in the others; with the implicit
+    rows held exactly, no point of the hull is strictly inside (HiGHS' centre misses a
+    row by 1.6e-8 <Fn>, and an LP with iterative refinement does no better than 2e-8).
+    Beyond config.FRAME_MAX_WIDENING the frame is refused (NumericalError)."""
+    miss = -float(s.min()) / problem.force_scale
+    widening = miss + config.FRAME_MARGIN
+    if widening > config.FRAME_MAX_WIDENING:
+        raise NumericalError(f"S has no point strictly inside its affine hull: its centre "
+                             f"misses inequality row {rows[int(np.argmin(s))]} by {miss:.3g} "
+                             f"<Fn> (more than {config.FRAME_MAX_WIDENING:g} <Fn> may not be "
+                             f"widened: S is numerically thinner than its dimension says)")
+    return widening
+
+
+def widening_note(widening: float) -> str:
+    """The tolerance description's words for a frame widening (empty when 0)."""
+    return (f", plus the frame's widening {widening:.3g} <Fn> (S had no point strictly "
+            "inside in its affine hull)") if widening else ""
 
 
 def rounding_method(n_rows: int) -> str:
@@ -264,14 +311,16 @@ class _Walk:
     def __init__(self, problem: StaticsProblem, options: dict, analysis, progress: bool):
         t0, c0 = time.perf_counter(), time.process_time()
         self.problem, self.progress = problem, progress
-        self.xc, self.N, self.H0, self.s0, self.free, self.analysis = frame(problem, analysis)
+        (self.xc, self.N, self.H0, self.s0, self.free, self.analysis,
+         self.widening) = frame(problem, analysis)
         self.d = self.N.shape[1]
         self.params = default_params(self.d, self.H0.shape[0], **options)
         self.times = {"frame_s": time.perf_counter() - t0, "rounding_s": 0.0, "burn_in_s": 0.0}
         self.cpu = {"frame_s": time.process_time() - c0, "rounding_s": 0.0, "burn_in_s": 0.0}
         self.tolerance_description = (
             f"every sample has max violation <= {config.SAMPLE_VIOLATION} relative to <Fn> "
-            "(checked), plus the equilibrium floor of the frame's directions |A T| |w| / <Fn>")
+            "(checked), plus the equilibrium floor of the frame's directions |A T| |w| / <Fn>"
+            + widening_note(self.widening))
         self.floor_max = 0.0
 
     def set_up(self):
@@ -344,7 +393,7 @@ class _Walk:
         v = self.problem.violation(x)
         floor = float((self.abs_AT @ np.abs(W[c])).max(initial=0.0)) if self.d else 0.0
         self.floor_max = max(self.floor_max, floor)
-        allowed = config.SAMPLE_VIOLATION + floor
+        allowed = config.SAMPLE_VIOLATION + floor + self.widening
         if not v <= allowed:
             raise NumericalError(f"hit-and-run sample {i} violates S by {v:.3e} x "
                                  f"<Fn> (> {allowed:.3e})")
@@ -410,6 +459,7 @@ class HitAndRun(FrameSampler):
         cpu = dict(walk.cpu, sampling_s=cpu_total - sum(walk.cpu.values()), total_s=cpu_total)
         self._results.update(ensemble=ens, dim=walk.d, n_rows=int(walk.H0.shape[0]),
                              times=times, cpu=cpu, frame_equality_floor=walk.floor_max,
+                             frame_widening=walk.widening,
                              params=walk.params)
         self._finish(ens.status, ens.message)
         return self
@@ -419,6 +469,7 @@ class HitAndRun(FrameSampler):
         ens = self.ensemble
         return {"n_samples": ens.n_samples, "dim_S": self.dim, "n_rows": self.n_rows,
                 **self.times, "cpu": self.cpu, "frame_equality_floor": self.frame_equality_floor,
+                "frame_widening": self.frame_widening,
                 "max_violation": float(ens.violations.max(initial=0.0)),
                 "params": self.params, "status": self.status, "message": self.message,
                 **ens.diagnostics}
