@@ -98,7 +98,9 @@ def run_samplers(row: dict, runs, prob, wd, tag: str = "", analysis=None) -> dic
     """Run each (name, sampler) of ``runs`` on ``prob`` into ``wd/NAME{tag}.h5`` and add
     to ``row``: eta_NAME (every run's), converged_NAME (rule 4: finished with bulk and
     tail ESS >= 100 and R-hat <= 1.05 on every tracked statistic), n_NAME, ess_NAME,
-    rhat_NAME, t_NAME_s, and relax_projected (stalls finished by projection). A run that
+    rhat_NAME, t_NAME_s, relax_projected (stalls finished by projection) and widening_NAME
+    (a uniform sampler's frame widening, <Fn>, where S had no point strictly inside in its
+    affine hull: samples within it of S; absent when 0). A run that
     fails keeps the row: error_NAME says why. Returns {name: Ensemble, or None if the
     run failed}."""
     from forcespace.errors import ForcespaceError
@@ -125,6 +127,8 @@ def run_samplers(row: dict, runs, prob, wd, tag: str = "", analysis=None) -> dic
                     f"stop_{name}": smp.message, f"t_{name}_s": time.perf_counter() - t0})
         if name == "relax":
             row["relax_projected"] = int(smp.projected.size)
+        elif smp.frame_widening:
+            row[f"widening_{name}"] = smp.frame_widening
         out[name] = ens
     return out
 

@@ -240,7 +240,8 @@ ROW_KEYS = ["task", "n", "mu", "seed", "width", "slice_height", "window_width",
             "ess_billiard", "rhat_billiard", "stop_billiard", "error_billiard",
             "eta_hit_and_run", "eta_window_hit_and_run", "converged_hit_and_run",
             "n_hit_and_run", "ess_hit_and_run", "rhat_hit_and_run", "stop_hit_and_run",
-            "error_hit_and_run", "error_analysis", "jam_steps", "static_retries",
+            "error_hit_and_run", "widening_billiard", "widening_hit_and_run",
+            "error_analysis", "jam_steps", "static_retries",
             "static_restart", "t_jam_s", "t_analyze_s", "t_clusters_s",
             "t_billiard_s", "t_hit_and_run_s"]
 
@@ -489,7 +490,7 @@ def summarize(results: list[dict], out) -> dict:
                  + ", ".join(f"{k} = {v:g}" for k, v in keys.items()) + " instead of the "
                  "scene's own value" + (f": {PROTOCOL_WHY[float(mu)]}"
                                         if float(mu) in PROTOCOL_WHY else "") + ".")
-    text += restarts_note(rows)
+    text += restarts_note(rows) + widening_note(rows)
     if rows:
         text += ("\n\nPackings per (mu, n) and what entered the fits (converged runs with eta "
                  "> 0; determinate ones counted after the +; mean eta over the former with "
@@ -520,6 +521,20 @@ def restarts_note(rows) -> str:
             "compressions; the LP found a static network and Gauss-Seidel finished from "
             f"it): {len(hit)} of {len(rows)} packings (" + ", ".join(
                 f"n = {r['n']}, mu = {r['mu']:g}, seed {r['seed']}" for r in hit) + ").")
+
+
+def widening_note(rows) -> str:
+    """The packings whose S had no point strictly inside in its affine hull, so that the
+    uniform samplers moved every free row out by round-off (sampling.hit_and_run.frame)."""
+    hit = [(r, k) for r in rows for k in ("billiard", "hit_and_run") if r.get(f"widening_{k}")]
+    if not hit:
+        return ""
+    return ("\n\nFrame widened (S, thin as round-off in a direction its dimension keeps, had "
+            "no point strictly inside in its affine hull; every free inequality moved out by "
+            f"the start's miss plus {fs_config.FRAME_MARGIN:g} <Fn>, every sample within "
+            "that of S): (" + ", ".join(
+                f"n = {r['n']}, mu = {r['mu']:g}, seed {r['seed']} ({k.replace('_', '-')}, "
+                f"{r[f'widening_{k}']:.2g} <Fn>)" for r, k in hit) + ").")
 
 
 def _eta_panel(ax, rows, by_n, fits, mus, scope, win):
