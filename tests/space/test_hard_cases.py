@@ -293,6 +293,24 @@ def test_a_frame_whose_centre_misses_a_thin_S_is_widened_by_the_miss(monkeypatch
         assert r.ensemble.eta == pytest.approx(exact, rel=0.1)
 
 
+def test_a_frame_whose_centre_lp_has_no_optimum_starts_from_the_analysis_centre(monkeypatch):
+    """Size study, n = 2000, mu = 1, seed 10 (dim S 19): every HiGHS attempt at the
+    frame's Chebyshev-centre LP ended without an optimum and the billiard task failed.
+    The frame now keeps the analysis' centre (here 1.1e-10 <Fn> outside a facet, 2e-11 in
+    the hull) and widens by its miss: the start has exactly FRAME_MARGIN of slack."""
+    from forcespace import config
+    from forcespace.sampling import hit_and_run
+    prob, _, an = _rectangle_centred_outside()
+    monkeypatch.setattr(hit_and_run, "inner_ball", lambda H, s, r_max: None)
+    f = hit_and_run.frame(prob, an)
+    miss = prob.violation(an.centre)
+    assert 1e-10 < miss < 2e-10
+    # the frame's miss is the centre's, projected onto the hull: no larger, not zero
+    assert 0 < f.widening - config.FRAME_MARGIN <= miss
+    assert 0 < prob.violation(f.xc) <= f.widening
+    assert f.s0.min() == pytest.approx(config.FRAME_MARGIN * prob.force_scale, rel=1e-6)
+
+
 def test_a_frame_missing_S_by_more_than_round_off_is_refused(monkeypatch):
     """A miss beyond FRAME_MAX_WIDENING is not round-off: the frame refuses, naming the
     row and the miss, before any sampling."""
