@@ -235,6 +235,22 @@ def _rectangle_centred_outside():
     return prob, an, fake
 
 
+def test_an_mve_round_whose_centre_drifts_onto_a_facet_is_redone_by_john():
+    """Size study, n = 400, mu = 0.01, seed 3 (slice 39.6 R, dim S 189, 916 rows): the
+    MVE interior point stopped unconverged after 119 iterations with its centre on a
+    facet (slack -3e-19), and hit-and-run's next round refused that start. The round is
+    rejected, the rounding is John's, and the walk starts strictly inside."""
+    from forcespace.sampling import hit_and_run as har
+    prob = slice_problem(fs.read_packing(DATA / "paper_fast_n400_mu0.01_s3.h5"),
+                         39.59797974644666)
+    f = har.frame(prob)
+    assert f.H0.shape == (916, 189) and har.rounding_method(916) == "mve"
+    y0, L, info = har.rounding(f.H0, f.s0, prob.force_scale)
+    assert info["fallback_from"]["rejected_round"] == 1 and info["method"] == "john"
+    assert (f.s0 - prob.force_scale * f.H0 @ y0).min() > 1e-3 * f.s0.min()
+    assert info["axis_ratio"][-1] < 6 and all(info["converged"])
+
+
 def test_a_centre_a_round_off_outside_a_facet_is_recentred_in_the_frame():
     """Size study, n = 800, mu = 1: the Chebyshev centre, projected onto the affine hull,
     lay 1e-10 <Fn> outside a facet and the billiard walk's rounding refused it. Here the

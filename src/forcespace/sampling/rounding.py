@@ -273,7 +273,9 @@ def mve_rounding(H, s, y0, max_rounds: int = 4, ratio: float = 6.0, progress: bo
     needs a second pass). info: rounds, last axis ratio, converged flags,
     interior-point iterations per round. ``progress``: a bar on stderr counting
     interior-point iterations, with the round, KKT residual and duality gap.
-    ``method``: "mve" (exact, :func:`mve`) or "john" (:func:`john_ellipsoid`).
+    ``method``: "mve" (exact, :func:`mve`) or "john" (:func:`john_ellipsoid`). A round
+    whose centre is not strictly inside is rejected (``info["rejected_round"]``); when it
+    is the first MVE round, the rounding is John's (``info["fallback_from"]``: the MVE's).
     """
     from ..progress import progress as progress_bar
 
@@ -302,6 +304,16 @@ def mve_rounding(H, s, y0, max_rounds: int = 4, ratio: float = 6.0, progress: bo
             sl = s - H @ shift
             c, E2, ok, its = solve(Hl, sl, np.zeros(d), callback=show)
             info["iterations"].append(int(its) + 1)
+            if not np.all(sl - Hl @ c > 0):
+                # an unconverged interior point whose centre drifted onto a facet (size
+                # study, n = 400, mu = 0.01, seed 3, dim 189: 119 iterations, slack -3e-19):
+                # keep the rounds before it; a first round is redone by John's ellipsoid
+                info["rejected_round"] = info["rounds"] + 1
+                if info["rounds"] == 0 and method == "mve":
+                    bar.close()
+                    shift, L, john = mve_rounding(H, s, y0, max_rounds, ratio, progress, "john")
+                    return shift, L, {**john, "fallback_from": info}
+                break
             info, shift, L, r = _next_round(info, shift, L, c, E2, ok)
             if r < ratio or (method == "john" and not ok):
                 break      # round; or John's iteration used its budget: another round
