@@ -127,7 +127,7 @@ def run_samplers(row: dict, runs, prob, wd, tag: str = "", analysis=None) -> dic
                     f"stop_{name}": smp.message, f"t_{name}_s": time.perf_counter() - t0})
         if name == "relax":
             row["relax_projected"] = int(smp.projected.size)
-        elif smp.frame_widening:
+        elif getattr(smp, "frame_widening", 0.0):
             row[f"widening_{name}"] = smp.frame_widening
         out[name] = ens
     return out
