@@ -532,9 +532,9 @@ def widening_note(rows) -> str:
     return ("\n\nFrame widened (S, thin as round-off in a direction its dimension keeps, had "
             "no point strictly inside in its affine hull; every free inequality moved out by "
             f"the start's miss plus {fs_config.FRAME_MARGIN:g} <Fn>, every sample within "
-            "that of S): (" + ", ".join(
+            "that of S): " + "; ".join(
                 f"n = {r['n']}, mu = {r['mu']:g}, seed {r['seed']} ({k.replace('_', '-')}, "
-                f"{r[f'widening_{k}']:.2g} <Fn>)" for r, k in hit) + ").")
+                f"{r[f'widening_{k}']:.2g} <Fn>)" for r, k in hit) + ".")
 
 
 def _eta_panel(ax, rows, by_n, fits, mus, scope, win):

@@ -536,7 +536,7 @@ def test_size_names_the_packings_whose_frame_was_widened():
     from forcespace_studies import size
     rows = [dict(n=5000, mu=1.0, seed=4, widening_billiard=2.59e-8),
             dict(n=5000, mu=1.0, seed=3), dict(n=100, mu=0.1, seed=1, widening_hit_and_run=0)]
-    assert "(n = 5000, mu = 1, seed 4 (billiard, 2.6e-08 <Fn>))" in size.widening_note(rows)
+    assert "of S): n = 5000, mu = 1, seed 4 (billiard, 2.6e-08 <Fn>)." in size.widening_note(rows)
     assert size.widening_note(rows[1:]) == ""
 
 
