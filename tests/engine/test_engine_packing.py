@@ -289,6 +289,37 @@ def reports_a_stall(real):
     return stalls
 
 
+def test_a_resumed_jam_keeps_its_static_retries_and_its_earlier_time(tmp_path, monkeypatch):
+    # size study, n = 5000, mu = 1, seed 4 was jammed across two sessions: the resumed
+    # run started its retry count afresh (it could have had 3 more) and its recorded time
+    # was the last session's only. A checkpoint now carries both: here one that has used
+    # 2 of the 3 retries and 100 s of compression, with every static solve stalling, gets
+    # exactly one more retry before the exact-point restart, and counts the 100 s
+    from forcespace.engine import compress as compress_module, protocol
+    from forcespace.engine.protocol import start_bodies
+    from forcespace.io.checkpoint import read_checkpoint, write_checkpoint
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14, "physics.mu": 1.0})
+    ck = tmp_path / "c.h5"
+    compress_module.compress(scene, start_bodies(scene), scene["scene.seed"],
+                             show_progress=False, checkpoint=ck)
+    ident = compress_module.scene_identity(scene)
+    state = read_checkpoint(ck, ident)
+    assert state["retries"] == 0 and 0 < state["seconds"] < 100
+    write_checkpoint(ck, ident, dict(state, retries=2, seconds=100.0))
+    solves = []
+
+    def stalls(*args, **kw):
+        solves.append(1)
+        return reports_a_stall(real)(*args, **kw)
+    real = protocol.static_solve
+    monkeypatch.setattr(protocol, "static_solve", stalls)
+    p = build_packing(scene, show_progress=False, checkpoint=ck)
+    assert len(solves) == 2                       # the stalled one and one retry
+    assert p.meta["static_retries"] == protocol.STATIC_RETRIES
+    assert p.meta["static_restart"] == "exact point"
+    assert p.meta["compress_seconds"] >= 100 and p.meta["wall_seconds"] >= 100
+
+
 def test_a_static_solve_that_stalls_restarts_from_an_exact_point_of_S(monkeypatch):
     # NLGS from the dynamics' forces can stall on a configuration that is static (seen
     # at mu = 1, n = 800): after the retries the feasibility LP of S gives a static

@@ -44,7 +44,11 @@ class Run:
     contacts: the last step's contacts; v_ref: the largest window mean speed so far
     [R/T] (the progress measure's origin); phase: "compressing" or "jammed";
     rest_after: the rest criterion is not tested before this many steps (set when a
-    jammed run is sent back to compressing, see :func:`unsettle`).
+    jammed run is sent back to compressing, see :func:`unsettle`); retries: how many
+    times a failed static solve sent it back (the protocol's count, kept across a
+    resume); seconds_before: wall seconds of compression in earlier processes (resumed
+    from a checkpoint; 0 for a fresh run); started: this process's perf_counter() at
+    the start (not saved).
     """
 
     steps: int = 0
@@ -54,6 +58,13 @@ class Run:
     v_ref: float = float("nan")
     phase: str = "compressing"
     rest_after: int = 0
+    retries: int = 0
+    seconds_before: float = 0.0
+    started: float = field(default_factory=time.perf_counter, compare=False, repr=False)
+
+    def seconds(self) -> float:
+        """Wall seconds of this run so far, earlier processes included."""
+        return self.seconds_before + time.perf_counter() - self.started
 
 
 def scene_identity(scene: Scene) -> str:
@@ -67,7 +78,8 @@ def snapshot(bodies: Bodies, run: Run) -> dict:
     state.update(keys=run.contacts.keys.copy(), rn=run.contacts.rn.copy(),
                  rt=run.contacts.rt.copy(), log=np.array(run.log, float).reshape(-1, 5),
                  steps=run.steps, phase=run.phase, v_first=run.v_ref,
-                 rest_after=run.rest_after, stats=run.stats._asdict())
+                 rest_after=run.rest_after, retries=run.retries, seconds=run.seconds(),
+                 stats=run.stats._asdict())
     return state
 
 
@@ -91,7 +103,8 @@ def restore(path, scene: Scene, bodies: Bodies) -> Run | None:
                contacts=ContactForces(state["keys"].astype(np.int64), state["rn"],
                                       state["rt"]),
                v_ref=state["v_first"], phase=state["phase"],
-               rest_after=state.get("rest_after", 0))
+               rest_after=state.get("rest_after", 0), retries=state.get("retries", 0),
+               seconds_before=state.get("seconds", 0.0))
 
 
 class JamProgress:

@@ -10,7 +10,9 @@
    only looked at rest (a slow creep that paused for a window; at mu = 1, n = 800 such
    a configuration admitted no static network at all): the compression goes on, the rest
    criterion suspended for ``UNSETTLE_WINDOWS`` windows, and the static solve is tried
-   again, up to ``STATIC_RETRIES`` times (counted in ``meta["static_retries"]``). A
+   again, up to ``STATIC_RETRIES`` times (counted in ``meta["static_retries"]``; a run
+   resumed from its checkpoint keeps its count, and ``meta["compress_seconds"]`` and
+   ``meta["wall_seconds"]`` include the compression of the processes before). A
    packing whose first static solve succeeds is unchanged by this.
    If the last one fails too, the exact LP of S decides
    (:func:`~forcespace.engine.static.restart_from_exact_point`): a static network
@@ -77,9 +79,10 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
         meta = compress(scene, bodies, seed, show_progress, checkpoint=checkpoint,
                         interrupt=interrupt, run=run)
         packing, static = static_solve(scene, bodies, seed, show_progress, interrupt)
-        retries, seconds = 0, meta["compress_seconds"]
-        while not static["static_residual"] <= tol and retries < STATIC_RETRIES:
-            retries += 1
+        # a resumed run brings its retries and earlier compression time (checkpoint)
+        seconds = run.seconds_before + meta["compress_seconds"]
+        while not static["static_residual"] <= tol and run.retries < STATIC_RETRIES:
+            run.retries += 1
             unsettle(scene, run, UNSETTLE_WINDOWS)
             meta = compress(scene, bodies, seed, show_progress, checkpoint=checkpoint,
                             interrupt=interrupt, run=run)
@@ -94,9 +97,10 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
             if exact is not None:
                 packing, static = exact
     packing.solver_log = np.array(run.log, dtype=float).reshape(-1, 5)
+    retries = run.retries
     meta.update(static, compress_seconds=seconds, static_retries=retries,
                 static_restart=restart)
-    meta["wall_seconds"] = time.perf_counter() - t0
+    meta["wall_seconds"] = time.perf_counter() - t0 + run.seconds_before
     meta["rotation"] = bool(scene.rotation)
     if not static["static_residual"] <= tol:
         raise NumericalError(

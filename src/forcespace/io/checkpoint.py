@@ -42,8 +42,10 @@ def write_checkpoint(path, scene: str, state: dict) -> None:
     ``scene``: the identity string of the scene the state belongs to; ``state``: the
     arrays of BODY_FIELDS and CONTACT_FIELDS, ``log`` (k, 5), and scalars ``steps``,
     ``phase`` (str), ``v_first``, ``rest_after`` (the step before which the rest
-    criterion is not tested; 0 when absent, as in files written before it existed) and
-    ``stats`` (a dict of named numbers).
+    criterion is not tested), ``retries`` (static solves that sent the run back),
+    ``seconds`` (wall seconds of the run so far) and ``stats`` (a dict of named
+    numbers). rest_after, retries and seconds read as 0 when absent, as in files
+    written before they existed.
     """
     with atomic_h5(path, {"file_kind": KIND}) as f:
         f.attrs["scene"] = scene
@@ -51,6 +53,8 @@ def write_checkpoint(path, scene: str, state: dict) -> None:
         f.attrs["phase"] = str(state["phase"])
         f.attrs["v_first"] = float(state["v_first"])
         f.attrs["rest_after"] = int(state.get("rest_after", 0))
+        f.attrs["retries"] = int(state.get("retries", 0))
+        f.attrs["seconds"] = float(state.get("seconds", 0.0))
         for k, v in state["stats"].items():
             f.attrs[f"stats.{k}"] = v
         g = f.create_group("bodies")
@@ -84,6 +88,8 @@ def read_checkpoint(path, scene: str) -> dict | None:
             out["phase"] = str(f.attrs["phase"])
             out["v_first"] = float(f.attrs["v_first"])
             out["rest_after"] = int(f.attrs.get("rest_after", 0))
+            out["retries"] = int(f.attrs.get("retries", 0))
+            out["seconds"] = float(f.attrs.get("seconds", 0.0))
             out["stats"] = {k[6:]: f.attrs[k].item() for k in f.attrs if k.startswith("stats.")}
         except (KeyError, ValueError, TypeError, OSError) as exc:
             raise InputError(path, "(checkpoint)", f"is incomplete or corrupt ({exc}); delete "
