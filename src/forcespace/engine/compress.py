@@ -46,9 +46,9 @@ class Run:
     rest_after: the rest criterion is not tested before this many steps (set when a
     jammed run is sent back to compressing, see :func:`unsettle`); retries: how many
     times a failed static solve sent it back (the protocol's count, kept across a
-    resume); seconds_before: wall seconds of compression in earlier processes (resumed
-    from a checkpoint; 0 for a fresh run); started: this process's perf_counter() at
-    the start (not saved).
+    resume); seconds_before: wall seconds the run took in earlier processes (compression
+    and static solves; resumed from a checkpoint; 0 for a fresh run); started: this
+    process's perf_counter() at the start (not saved).
     """
 
     steps: int = 0

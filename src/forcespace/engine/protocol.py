@@ -12,7 +12,7 @@
    criterion suspended for ``UNSETTLE_WINDOWS`` windows, and the static solve is tried
    again, up to ``STATIC_RETRIES`` times (counted in ``meta["static_retries"]``; a run
    resumed from its checkpoint keeps its count, and ``meta["compress_seconds"]`` and
-   ``meta["wall_seconds"]`` include the compression of the processes before). A
+   ``meta["wall_seconds"]`` include the time the run took in the processes before). A
    packing whose first static solve succeeds is unchanged by this.
    If the last one fails too, the exact LP of S decides
    (:func:`~forcespace.engine.static.restart_from_exact_point`): a static network
