@@ -68,7 +68,7 @@ from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
 from ..streams import chain_states, start_generator
 from .driver import FrameSampler, Stop, check_target, run_walk
-from .hit_and_run import frame, widening_note
+from .hit_and_run import frame, tolerance_description
 from .rounding import lewis_rounding_with_progress
 from .xoshiro import normals, uniform
 
@@ -366,10 +366,7 @@ class _Walk:
                       "burn_in_s": 0.0}
         self.cpu = {"frame_s": time.process_time() - c0, "rounding_s": 0.0, "gram_s": 0.0,
                     "burn_in_s": 0.0, "sampling_s": 0.0}
-        self.tolerance_description = (
-            f"every sample has max violation <= {config.SAMPLE_VIOLATION} relative to <Fn> "
-            "(checked), plus the equilibrium floor of the frame's directions |A T| |w| / <Fn>"
-            + widening_note(self.widening))
+        self.tolerance_description = tolerance_description(self.widening)
         self.kept = []          # w of every sample drawn (the frame floor, computed at the end)
         self.walk = None
 

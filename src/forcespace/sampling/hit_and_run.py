@@ -189,7 +189,7 @@ def frame(problem: StaticsProblem, analysis=None) -> Frame:
         raise NumericalError(f"the centre of S violates inequality row {free[bad][0]} by "
                              f"{-s0[bad].min() / problem.force_scale:.3g} <Fn>, and no point "
                              f"of the affine hull satisfies it better")
-    H0, s0 = H0[~flat], s0[~flat]
+    H0, s0, free = H0[~flat], s0[~flat], free[~flat]
     widening = 0.0
     if H0.shape[1] and s0.size and s0.min() <= 0:
         # the centre, projected onto the hull, sits on (or a round-off outside) a facet of a
@@ -197,9 +197,9 @@ def frame(problem: StaticsProblem, analysis=None) -> Frame:
         y = _frame_centre(H0, s0, problem)
         xc, s0 = xc + N @ y, s0 - H0 @ y
         if s0.min() <= 0:
-            widening = _widening(s0, problem, free[~flat])
+            widening = _widening(s0, problem, free)
             s0 = s0 + widening * problem.force_scale
-    return Frame(xc, N, H0, s0, free[~flat], an, widening)
+    return Frame(xc, N, H0, s0, free, an, widening)
 
 
 def _frame_centre(H0, s0, problem) -> np.ndarray:
@@ -229,10 +229,13 @@ def _widening(s, problem, rows) -> float:
     return widening
 
 
-def widening_note(widening: float) -> str:
-    """The tolerance description's words for a frame widening (empty when 0)."""
-    return (f", plus the frame's widening {widening:.3g} <Fn> (S had no point strictly "
-            "inside in its affine hull)") if widening else ""
+def tolerance_description(widening: float) -> str:
+    """The ensemble file's tolerance line of a walk in the frame (both uniform samplers):
+    the checked violation bound, the frame's equilibrium floor and its widening, if any."""
+    return (f"every sample has max violation <= {config.SAMPLE_VIOLATION} relative to <Fn> "
+            "(checked), plus the equilibrium floor of the frame's directions |A T| |w| / <Fn>"
+            + (f", plus the frame's widening {widening:.3g} <Fn> (S had no point strictly "
+               "inside in its affine hull)" if widening else ""))
 
 
 def rounding_method(n_rows: int) -> str:
@@ -315,10 +318,7 @@ class _Walk:
         self.params = default_params(self.d, self.H0.shape[0], **options)
         self.times = {"frame_s": time.perf_counter() - t0, "rounding_s": 0.0, "burn_in_s": 0.0}
         self.cpu = {"frame_s": time.process_time() - c0, "rounding_s": 0.0, "burn_in_s": 0.0}
-        self.tolerance_description = (
-            f"every sample has max violation <= {config.SAMPLE_VIOLATION} relative to <Fn> "
-            "(checked), plus the equilibrium floor of the frame's directions |A T| |w| / <Fn>"
-            + widening_note(self.widening))
+        self.tolerance_description = tolerance_description(self.widening)
         self.floor_max = 0.0
 
     def set_up(self):
