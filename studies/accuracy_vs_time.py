@@ -88,14 +88,16 @@ def static_curve(p, S, caps, seed=1) -> list:
     sweeps, seconds [s], residual (relative equilibrium residual), distance [<Fn>]."""
     from forcespace.engine.protocol import make_bodies, static_solve
     from forcespace.model.scene import parse_scene_text
+    from forcespace.model.setup import Setup
     scene = parse_scene_text(p.scene_text)
 
     def solve(cap):
         s = scene.with_overrides(**{"jamming.static_max_sweeps": int(cap),
                                     "jamming.static_tolerance": 1e-13})
-        bodies = make_bodies(s, p.x, p.y, p.r, p.y_top, density=p.density)
+        setup = Setup.from_scene(s)
+        bodies = make_bodies(setup, p.x, p.y, p.r, p.y_top, density=p.density)
         t0 = time.perf_counter()
-        q, st = static_solve(s, bodies, seed, show_progress=False)
+        q, st = static_solve(setup, bodies, seed, show_progress=False)
         return time.perf_counter() - t0, q, st
 
     solve(10)                                  # compile

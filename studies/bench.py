@@ -27,6 +27,7 @@ from forcespace.plot import save_figure
 from forcespace.engine.protocol import build_packing, make_bodies, static_solve
 from forcespace.model.packing import Packing
 from forcespace.model.scene import load_scene
+from forcespace.model.setup import Setup
 
 OUT = Path(__file__).parent / "out"
 
@@ -56,13 +57,14 @@ def tile(p: Packing, k: int) -> Packing:
 def static_convergence(scene, packing: Packing, seed=1):
     """Residual against sweeps and seconds of the static solve from zero forces
     on the jammed configuration of ``packing`` (cold start: the worst case)."""
-    bodies = make_bodies(scene, packing.x, packing.y, packing.r, packing.y_top)
+    bodies = make_bodies(Setup.from_scene(scene), packing.x, packing.y, packing.r,
+                         packing.y_top)
     history = []
     for cap in (100, 300, 1000, 3000, 10000, 30000, 100000, 300000):
         s = scene.with_overrides(**{"jamming.static_max_sweeps": cap,
                                     "jamming.static_tolerance": 1e-13})
         t0 = time.perf_counter()
-        _p, st = static_solve(s, bodies, seed, show_progress=False)
+        _p, st = static_solve(Setup.from_scene(s), bodies, seed, show_progress=False)
         history.append((cap, time.perf_counter() - t0, st["static_residual"]))
         if st["static_residual"] <= 1e-13:
             break

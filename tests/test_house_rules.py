@@ -153,3 +153,28 @@ def test_errors_cross_process_boundaries_intact():
     assert isinstance(e, InputError) and str(e) == "a.toml: disks.n = 0: must be >= 1"
     assert (e.source, e.field, e.got) == ("a.toml", "disks.n", 0)
     assert str(pickle.loads(pickle.dumps(NumericalError("no")))) == "no"
+
+
+# the engine's entry points: the only engine functions that take the scene (and turn it
+# into records, forcespace.model.setup.Setup, at once)
+SCENE_ENTRY_POINTS = {"forcespace.engine.protocol": {"build_packing", "jam"}}
+
+
+def test_the_engine_reads_the_scene_only_at_its_entry_points():
+    """Below build_packing/jam no function takes a scene or reads a "section.key" of one:
+    the engine runs on the records of model.setup (boundary conditions as data)."""
+    readers, seen = [], 0
+    for name, _, tree in _modules(SRC / "engine", "forcespace.engine"):
+        allowed = SCENE_ENTRY_POINTS.get(name, set())
+        for fn in ast.walk(tree):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            seen += 1
+            params = {a.arg for a in fn.args.args + fn.args.kwonlyargs}
+            keys = [s.slice.value for s in ast.walk(fn) if isinstance(s, ast.Subscript)
+                    and isinstance(s.slice, ast.Constant) and isinstance(s.slice.value, str)
+                    and "." in s.slice.value]
+            if fn.name not in allowed and ("scene" in params or keys):
+                readers.append(f"{name}.{fn.name}: {keys or 'takes a scene'}")
+    assert seen > 70            # the walk saw the engine's functions
+    assert readers == []

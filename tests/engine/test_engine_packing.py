@@ -6,6 +6,7 @@ from forcespace.engine.protocol import build_packing, compress, make_bodies, sta
 from forcespace.model.walls import BOTTOM, LEFT, RIGHT
 from forcespace.io.packing_file import read_packing, write_packing
 from forcespace.model.scene import load_scene, validate
+from forcespace.model.setup import Setup
 from paths import QUICK
 
 
@@ -90,9 +91,10 @@ def _pyramid_scene(mu=0.0, rotation="auto"):
 def _pyramid(scene):
     x = np.array([1.0, 3.1, 2.05])
     y = np.array([1.0, 1.0, 3.0])
-    bodies = make_bodies(scene, x, y, np.ones(3), 5.0)
-    compress(scene, bodies, 1, show_progress=False)
-    return static_solve(scene, bodies, 1, show_progress=False)
+    setup = Setup.from_scene(scene)
+    bodies = make_bodies(setup, x, y, np.ones(3), 5.0)
+    compress(setup, bodies, 1, show_progress=False)
+    return static_solve(setup, bodies, 1, show_progress=False)
 
 
 def test_frictionless_pyramid_forces_solve_the_linear_statics():
@@ -216,9 +218,10 @@ def test_an_interrupt_saves_a_checkpoint_the_next_run_resumes_bit_identically(tm
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
     fresh = build_packing(scene, show_progress=False)
     ck = tmp_path / "p.h5.checkpoint.h5"
-    bodies = start_bodies(scene)
+    setup = Setup.from_scene(scene)
+    bodies = start_bodies(setup)
     with pytest.raises(Interrupted, match="resumes from"):
-        compress_module.compress(scene, bodies, scene["scene.seed"], show_progress=False,
+        compress_module.compress(setup, bodies, setup.seed, show_progress=False,
                                  checkpoint=ck, interrupt=_InterruptAfter(8))
     assert ck.exists()
     resumed = build_packing(scene, show_progress=False, checkpoint=ck)
@@ -237,9 +240,10 @@ def test_a_jammed_checkpoint_resumes_at_the_static_solve(tmp_path):
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
     fresh = build_packing(scene, show_progress=False)
     ck = tmp_path / "c.h5"
-    compress_module.compress(scene, start_bodies(scene), scene["scene.seed"],
+    setup = Setup.from_scene(scene)
+    compress_module.compress(setup, start_bodies(setup), setup.seed,
                              show_progress=False, checkpoint=ck)
-    state = read_checkpoint(ck, compress_module.scene_identity(scene))
+    state = read_checkpoint(ck, setup.identity)
     assert state["phase"] == "jammed" and state["steps"] == fresh.meta["steps"]
     resumed = build_packing(scene, show_progress=False, checkpoint=ck)
     np.testing.assert_array_equal(resumed.fn, fresh.fn)
@@ -300,9 +304,10 @@ def test_a_resumed_jam_keeps_its_static_retries_and_its_earlier_time(tmp_path, m
     from forcespace.io.checkpoint import read_checkpoint, write_checkpoint
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14, "physics.mu": 1.0})
     ck = tmp_path / "c.h5"
-    compress_module.compress(scene, start_bodies(scene), scene["scene.seed"],
+    setup = Setup.from_scene(scene)
+    compress_module.compress(setup, start_bodies(setup), setup.seed,
                              show_progress=False, checkpoint=ck)
-    ident = compress_module.scene_identity(scene)
+    ident = setup.identity
     state = read_checkpoint(ck, ident)
     assert state["retries"] == 0 and 0 < state["seconds"] < 100
     write_checkpoint(ck, ident, dict(state, retries=2, seconds=100.0))
@@ -368,17 +373,18 @@ def test_the_suspended_rest_test_survives_a_checkpoint(tmp_path):
     from forcespace.engine.protocol import start_bodies
     from forcespace.io.checkpoint import write_checkpoint
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
-    bodies = start_bodies(scene)
+    setup = Setup.from_scene(scene)
+    bodies = start_bodies(setup)
     run = C.Run(steps=400, phase="jammed")
-    C.unsettle(scene, run, 10)
+    C.unsettle(setup, run, 10)
     assert run.phase == "compressing" and run.rest_after == 400 + 10 * scene["jamming.window"]
     ck = tmp_path / "c.h5"
-    write_checkpoint(ck, C.scene_identity(scene), C.snapshot(bodies, run))
-    back = C.start_run(scene, start_bodies(scene), ck)
+    write_checkpoint(ck, setup.identity, C.snapshot(bodies, run))
+    back = C.start_run(setup, start_bodies(setup), ck)
     assert (back.phase, back.steps, back.rest_after) == ("compressing", 400, run.rest_after)
     with h5py.File(ck, "a") as f:                  # written before the field existed
         del f.attrs["rest_after"]
-    assert C.start_run(scene, start_bodies(scene), ck).rest_after == 0
+    assert C.start_run(setup, start_bodies(setup), ck).rest_after == 0
 
 
 @pytest.mark.parametrize("content", [b"garbage, not HDF5", b""])
@@ -444,21 +450,22 @@ def test_a_plate_too_light_for_the_step_is_refused_before_any_work(tmp_path, cap
     assert len(err) == 1 and "plates.top_mass" in err[0] and str(scene) in err[0]
     # dt^2 / top_mass: the bound sits at the contact margin (0.05^2 / 0.1 = 0.025)
     ok = load_scene(QUICK).with_overrides(**{"plates.top_mass": 0.026, "disks.n": 12})
-    from forcespace.engine.bodies import check_scene
-    check_scene(ok)
+    from forcespace.engine.bodies import check_setup
+    check_setup(Setup.from_scene(ok))
     with pytest.raises(Exception, match="plates.top_mass"):
-        check_scene(ok.with_overrides(**{"plates.top_mass": 0.024}))
+        check_setup(Setup.from_scene(ok.with_overrides(**{"plates.top_mass": 0.024})))
 
 
 def test_a_packing_that_keeps_overlaps_above_the_bound_is_a_non_convergence(quick):
     from forcespace.engine.protocol import check_overlap
     from forcespace.errors import NumericalError
     scene = load_scene(QUICK)
-    check_overlap(scene, quick)            # 1.9e-7 R: within the default 1e-4 R
+    check_overlap(Setup.from_scene(scene), quick)    # 1.9e-7 R: within the default 1e-4 R
     worst = quick.max_overlap()
     assert 0 < worst < scene["jamming.max_overlap"]
+    tight = scene.with_overrides(**{"jamming.max_overlap": 0.5 * worst})
     with pytest.raises(NumericalError, match="overlap of"):
-        check_overlap(scene.with_overrides(**{"jamming.max_overlap": 0.5 * worst}), quick)
+        check_overlap(Setup.from_scene(tight), quick)
 
 
 def test_the_jam_progress_is_the_log_of_the_mean_speed_against_its_tolerance():

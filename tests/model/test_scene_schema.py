@@ -8,6 +8,7 @@ from forcespace.cli import main
 from forcespace.errors import InputError
 from forcespace.io.packing_file import read_packing
 from forcespace.model.radii import draw_radii, moments, radii
+from forcespace.model.setup import Setup
 from forcespace.model.scene import SCHEMA, Range, load_scene, schema_table, validate
 from paths import PACKINGS, QUICK
 
@@ -59,11 +60,11 @@ def test_scene_command_prints_a_bundled_scene_that_loads_back(capsys, tmp_path):
 def test_uniform_radii_are_the_same_draws_as_before_distributions():
     sc = load_scene("paper")
     r1, r2 = np.random.default_rng(7), np.random.default_rng(7)
-    assert np.array_equal(draw_radii(sc, r1), r2.uniform(1.0, 2.0, 200))
+    assert np.array_equal(draw_radii(Setup.from_scene(sc).grains, r1), r2.uniform(1.0, 2.0, 200))
     assert r1.bit_generator.state == r2.bit_generator.state     # the stream goes on alike
     # and the committed seed-1 paper packing has exactly these radii
     p = read_packing(PACKINGS / "paper_mu0.1.h5")
-    mine = draw_radii(sc, np.random.default_rng(1))
+    mine = draw_radii(Setup.from_scene(sc).grains, np.random.default_rng(1))
     assert np.array_equal(np.sort(mine), np.sort(p.r))
 
 

@@ -11,7 +11,8 @@ and shapes its arguments; kernels take the named records of ``records``):
 * ``nlgs``       -- the Gauss-Seidel contact solver: :func:`nlgs.solve`
 * ``step``       -- Moreau-Jean time steps: :func:`step.run_steps`
 * ``frozen``     -- relaxation of a frozen network (static solve, relax walk): :func:`frozen.relax`
-* ``bodies``     -- a scene's loose start, body arrays and kernel settings
+* ``bodies``     -- a setup's loose start, body arrays and kernel settings (from the records
+  of :mod:`forcespace.model.setup`, made once from the scene by ``protocol``)
 * ``compress``   -- compression until jammed, checkpoints (:mod:`forcespace.io.checkpoint`)
 * ``static``     -- the static solve of the jammed configuration
 * ``protocol``   -- the whole protocol: :func:`protocol.build_packing`, :func:`protocol.jam`

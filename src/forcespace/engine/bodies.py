@@ -1,8 +1,9 @@
-"""The engine's bodies for a scene: loose start, body arrays, the kernels' settings.
+"""The engine's bodies for a setup: loose start, body arrays, the kernels' settings.
 
-Units: lengths in R, masses in rho R^2, forces in the internal unit sigma
-(:func:`force_unit`), time in T = sqrt(rho R^3 / sigma). Body layout:
-:mod:`forcespace.engine.records`.
+Everything here reads the records of :class:`~forcespace.model.setup.Setup` (made once
+from the scene at the top of the protocol), never the scene's keys. Units: lengths in R,
+masses in rho R^2, forces in the internal unit sigma (:attr:`Setup.force_unit`), time in
+T = sqrt(rho R^3 / sigma). Body layout: :mod:`forcespace.engine.records`.
 """
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import numpy as np
 
 from ..errors import InputError, NumericalError
 from ..model.radii import draw_radii
-from ..model.scene import Scene
+from ..model.setup import Boundary, Setup
 from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP
 from .records import Box, StepSettings, SweepSettings
 
@@ -40,26 +41,26 @@ class Bodies:
         return self.r.shape[0]
 
 
-def random_radii(scene: Scene, rng) -> np.ndarray:
-    """Radii (n,) [R] by the scene's ``disks.distribution`` (:mod:`forcespace.model.radii`;
+def random_radii(setup: Setup, rng) -> np.ndarray:
+    """Radii (n,) [R] by the grains' distribution (:mod:`forcespace.model.radii`;
     the default "uniform" is ``rng.uniform(radius_min, radius_max, n)``, as always)."""
-    return draw_radii(scene, rng)
+    return draw_radii(setup.grains, rng)
 
 
-def loose_start(scene: Scene, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+def loose_start(setup: Setup, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Random sequential placement of non-overlapping disks.
 
     Returns x, y, r (n,) and the box height [R] at the scene's initial packing
-    fraction. Disks are placed largest first; x is periodic if the scene says so.
+    fraction. Disks are placed largest first; x is periodic if the boundary is.
     With ``solver.sweep_block`` > 0 the disks are then numbered row by row (rows
     one largest diameter high, x increasing), so that contacts sorted by disk
     index are near each other in space. ``rng``: :func:`forcespace.streams.
     placement_rng` (radii first, then the placement draws).
     """
-    r = np.sort(random_radii(scene, rng))[::-1].copy()
-    width = scene["box.width"]
-    periodic = scene["box.periodic_x"]
-    height = np.pi * (r**2).sum() / (width * scene["box.initial_packing_fraction"])
+    r = np.sort(random_radii(setup, rng))[::-1].copy()
+    (width,), (periodic,) = setup.boundary.lateral, setup.boundary.periodic
+    fraction = setup.jamming.initial_packing_fraction
+    height = np.pi * (r**2).sum() / (width * fraction)
     height = max(height, 2.0 * r.max() + 1e-9)
     x = np.empty_like(r)
     y = np.empty_like(r)
@@ -76,8 +77,8 @@ def loose_start(scene: Scene, rng) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
         else:
             raise NumericalError(
                 f"could not place disk {i} without overlap at initial packing fraction "
-                f"{scene['box.initial_packing_fraction']}: lower box.initial_packing_fraction")
-    if scene["solver.sweep_block"] > 0:   # number the disks row by row (local sweeps)
+                f"{fraction}: lower box.initial_packing_fraction")
+    if setup.solver.sweep_block > 0:   # number the disks row by row (local sweeps)
         order = row_order(x, y, r)
         x, y, r = x[order], y[order], r[order]
     return x, y, r, height
@@ -89,93 +90,81 @@ def row_order(x, y, r) -> np.ndarray:
     return np.lexsort((x, np.floor(y / (2.0 * r.max()))))
 
 
-def force_unit(scene: Scene) -> float:
-    """The engine's internal force unit sigma [F0]: the top-plate load, else rho g R^2.
-
-    The kernels run with every force divided by sigma, so a scene whose loads
-    are all multiplied by k gives the same trajectory (positions bit for bit)
-    and forces exactly k times larger. Time is therefore measured in
-    sqrt(rho R^3 / sigma): ``solver.dt`` is in that unit (for the default
-    top_force = 1 F0 the two agree).
-    """
-    if scene["plates.top"] == "load":
-        return float(scene["plates.top_force"])
-    return float(scene["disks.density"] * scene["physics.gravity"])
-
-
-def make_bodies(scene: Scene, x, y, r, height, density=None) -> Bodies:
-    """Kernel body arrays for disks and walls; only the scene's physics is switched on.
+def make_bodies(setup: Setup, x, y, r, height, density=None) -> Bodies:
+    """Kernel body arrays for disks and walls; only the setup's physics is switched on.
 
     x, y, r (n,) [R]; height: the top plate's surface [R]. Forces are in the internal
-    unit :func:`force_unit`. ``density``: per-disk densities (n,) (default the
-    scene's uniform density).
+    unit :attr:`Setup.force_unit`. ``density``: per-disk densities (n,) (default the
+    grains' uniform density).
     """
     n = r.shape[0]
     nb = n + N_WALL_SLOTS
-    sigma = force_unit(scene)
-    rho = scene["disks.density"] if density is None else np.asarray(density, float)
+    sigma = setup.force_unit
+    physics, top = setup.physics, setup.boundary.top
+    rho = setup.grains.density if density is None else np.asarray(density, float)
     m = rho * np.pi * r**2
     inv_mx = np.zeros(nb)
     inv_my = np.zeros(nb)
     inv_i = np.zeros(nb)
     fy = np.zeros(nb)
     inv_mx[:n] = inv_my[:n] = 1.0 / m
-    if scene.rotation:
+    if physics.rotation:
         inv_i[:n] = 1.0 / (0.5 * m * r**2)
-    if scene["physics.gravity"] > 0:
-        fy[:n] = -m * (scene["physics.gravity"] / sigma)
+    if physics.gravity > 0:
+        fy[:n] = -m * (physics.gravity / sigma)
     X = np.zeros(nb)
     Y = np.zeros(nb)
     X[:n], Y[:n] = x, y
     Y[n + SLOT_BOTTOM] = 0.0
-    if scene["plates.top"] == "load":
+    if top is not None:
         Y[n + SLOT_TOP] = height
-        inv_my[n + SLOT_TOP] = 1.0 / scene["plates.top_mass"]
-        fy[n + SLOT_TOP] = -scene["plates.top_force"] / sigma
+        inv_my[n + SLOT_TOP] = 1.0 / top.mass
+        fy[n + SLOT_TOP] = -top.force / sigma
     return Bodies(X, Y, np.zeros(nb), np.zeros(nb), np.zeros(nb), np.zeros(nb), r.copy(),
                   inv_mx, inv_my, inv_i, fy)
 
 
-def scene_box(scene: Scene) -> Box:
-    """The container of a scene."""
-    periodic = bool(scene["box.periodic_x"])
-    return Box(float(scene["box.width"]), periodic, scene["plates.bottom"] == "fixed",
-               scene["plates.top"] == "load", not periodic)
+def kernel_box(boundary: Boundary) -> Box:
+    """The kernels' record of a 2-D container (:class:`~forcespace.model.setup.Boundary`)."""
+    if boundary.dim != 2:
+        raise InputError("setup", "boundary", "the disk engine runs in 2-D (one lateral "
+                         "axis)", got=boundary.dim)
+    periodic = bool(boundary.periodic[0])
+    return Box(float(boundary.lateral[0]), periodic, bool(boundary.bottom),
+               boundary.top is not None, not periodic)
 
 
-def velocity_scale(scene: Scene, bodies: Bodies) -> float:
+def velocity_scale(setup: Setup, bodies: Bodies) -> float:
     """v0 = sqrt(F rbar / mbar) in internal units [R/T]: F the top-plate load, or the mean
     disk weight."""
     n = bodies.n
     m = 1.0 / bodies.inv_mx[:n]
-    f0 = -bodies.fy_ext[n + SLOT_TOP] if scene["plates.top"] == "load" \
+    f0 = -bodies.fy_ext[n + SLOT_TOP] if setup.boundary.top is not None \
         else float(-bodies.fy_ext[:n].mean())
     return float(np.sqrt(f0 * bodies.r.mean() / m.mean()))
 
 
-def step_settings(scene: Scene, v0: float = 1.0) -> tuple[StepSettings, SweepSettings]:
-    """The time stepper's settings for a scene; v0 [R/T]: :func:`velocity_scale` (the
+def step_settings(setup: Setup, v0: float = 1.0) -> tuple[StepSettings, SweepSettings]:
+    """The time stepper's settings for a setup; v0 [R/T]: :func:`velocity_scale` (the
     unit of ``solver.moving_speed``)."""
-    sweeps = scene["solver.max_sweeps"]
-    fallback = scene["solver.relaxation_fallback"]
+    s, physics = setup.solver, setup.physics
+    sweeps = s.max_sweeps
+    fallback = s.relaxation_fallback
     step = StepSettings(
-        margin=float(scene["solver.contact_margin"]), mu_disk=float(scene["physics.mu"]),
-        mu_wall=float(scene["physics.plate_mu"]), rotation=bool(scene.rotation),
-        tol_moving=float(scene["solver.tolerance_moving"]),
-        moving_speed=float(scene["solver.moving_speed"] * v0),
-        sweeps_moving=int(scene["solver.max_sweeps_moving"]))
+        margin=float(s.contact_margin), mu_disk=float(physics.mu),
+        mu_wall=float(physics.plate_mu), rotation=bool(physics.rotation),
+        tol_moving=float(s.tolerance_moving), moving_speed=float(s.moving_speed * v0),
+        sweeps_moving=int(s.max_sweeps_moving))
     sweep = SweepSettings(
-        dt=float(scene["solver.dt"]), tol=float(scene["solver.tolerance"]),
-        max_sweeps=int(sweeps), relaxation=float(scene["solver.relaxation"]),
-        block=int(scene["solver.sweep_block"]),
-        overlap_correction=float(scene["solver.overlap_correction"]),
-        overlap_slop=float(scene["solver.overlap_slop"]),
+        dt=float(s.dt), tol=float(s.tolerance), max_sweeps=int(sweeps),
+        relaxation=float(s.relaxation), block=int(s.sweep_block),
+        overlap_correction=float(s.overlap_correction), overlap_slop=float(s.overlap_slop),
         relax_until=-1 if fallback == 0.5 else int(fallback * sweeps))
     return step, sweep
 
 
-def check_scene(scene: Scene) -> None:
-    """Refuse (InputError) a scene the time stepper cannot run faithfully, before any work.
+def check_setup(setup: Setup) -> None:
+    """Refuse (InputError) a setup the time stepper cannot run faithfully, before any work.
 
     A load-controlled plate of mass M under its load F moves dt^2 F / M in one step from
     rest (dt is measured in the load's time unit, so that is ``solver.dt**2 /
@@ -183,14 +172,15 @@ def check_scene(scene: Scene) -> None:
     between two contact detections and end in overlaps no step removes (top_mass = 1e-6
     kept 4.5e-3 R, 22 000 x the slop).
     """
-    if scene["plates.top"] != "load":
+    top, dt = setup.boundary.top, setup.solver.dt
+    if top is None:
         return
-    free_step = scene["solver.dt"] ** 2 / scene["plates.top_mass"]
-    margin = scene["solver.contact_margin"]
+    free_step = dt ** 2 / top.mass
+    margin = setup.solver.contact_margin
     if free_step > margin:
-        raise InputError(scene.source, "plates.top_mass",
+        raise InputError(setup.source, "plates.top_mass",
                          f"must be >= solver.dt^2 / solver.contact_margin = "
-                         f"{scene['solver.dt'] ** 2 / margin:.3g} (the plate would move "
+                         f"{dt ** 2 / margin:.3g} (the plate would move "
                          f"{free_step:.3g} R in one step from rest, more than the contact "
                          f"margin {margin:g} R: contacts are missed); raise it or lower "
-                         "solver.dt", got=scene["plates.top_mass"])
+                         "solver.dt", got=top.mass)

@@ -21,10 +21,10 @@ import numpy as np
 
 from ..errors import InputError, NumericalError
 from ..io.checkpoint import read_checkpoint, write_checkpoint
-from ..model.scene import Scene
+from ..model.setup import Setup
 from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP
 from ..progress import progress
-from .bodies import Bodies, scene_box, step_settings, velocity_scale
+from .bodies import Bodies, kernel_box, step_settings, velocity_scale
 from .interrupts import InterruptFlag
 from .records import ContactForces, StepStats
 from .step import run_steps
@@ -67,11 +67,6 @@ class Run:
         return self.seconds_before + time.perf_counter() - self.started
 
 
-def scene_identity(scene: Scene) -> str:
-    """What a checkpoint must match: the scene without its step budget."""
-    return scene.with_overrides(**{"jamming.max_steps": 1}).to_toml().split("\n", 1)[1]
-
-
 def snapshot(bodies: Bodies, run: Run) -> dict:
     """The checkpoint state of ``bodies`` and ``run`` (copies)."""
     state = {k: getattr(bodies, k).copy() for k in STATE_ARRAYS}
@@ -83,10 +78,11 @@ def snapshot(bodies: Bodies, run: Run) -> dict:
     return state
 
 
-def restore(path, scene: Scene, bodies: Bodies) -> Run | None:
-    """The run saved in checkpoint ``path`` for ``scene`` (bodies restored in place), or
-    None without a checkpoint. InputError for a foreign or corrupt file."""
-    state = read_checkpoint(path, scene_identity(scene))
+def restore(path, setup: Setup, bodies: Bodies) -> Run | None:
+    """The run saved in checkpoint ``path`` for ``setup`` (its :attr:`~Setup.identity`;
+    bodies restored in place), or None without a checkpoint. InputError for a foreign or
+    corrupt file."""
+    state = read_checkpoint(path, setup.identity)
     if state is None:
         return None
     if state["x"].shape != bodies.x.shape:
@@ -138,16 +134,16 @@ class JamProgress:
         self.bar.close()
 
 
-def run_window(scene: Scene, bodies: Bodies, run: Run, seed: int, settings, chunk: list,
+def run_window(window: int, bodies: Bodies, run: Run, seed: int, settings, chunk: list,
                interrupt: InterruptFlag, on_interrupt) -> StepStats:
-    """One window of ``jamming.window`` steps in chunks of kernel calls (in place).
+    """One window of ``window`` steps (``jamming.window``) in chunks of kernel calls
+    (in place).
 
     ``chunk``: [steps per call], adapted to about CHUNK_SECONDS of CPU per call;
     ``on_interrupt()`` runs (and Interrupted is raised) when an interrupt was requested
     after a call.
     """
     box, step, sweep = settings
-    window = scene["jamming.window"]
     wseed = window_seed(seed, run.steps)
     total = StepStats.zero()
     done = 0
@@ -167,22 +163,22 @@ def run_window(scene: Scene, bodies: Bodies, run: Run, seed: int, settings, chun
     return total
 
 
-def start_run(scene: Scene, bodies: Bodies, checkpoint=None) -> Run:
+def start_run(setup: Setup, bodies: Bodies, checkpoint=None) -> Run:
     """The run a compression starts from: the one saved in ``checkpoint`` (bodies
     restored in place) or a fresh one."""
-    run = restore(checkpoint, scene, bodies) if checkpoint else None
+    run = restore(checkpoint, setup, bodies) if checkpoint else None
     return run or Run()
 
 
-def unsettle(scene: Scene, run: Run, windows: int) -> None:
+def unsettle(setup: Setup, run: Run, windows: int) -> None:
     """Send a jammed run back to compressing, the rest criterion not tested for the
     next ``windows`` windows (in place): for a rest state whose static solve failed,
     i.e. a configuration that only looked at rest (a slow creep paused for a window)."""
     run.phase = "compressing"
-    run.rest_after = run.steps + windows * scene["jamming.window"]
+    run.rest_after = run.steps + windows * setup.jamming.window
 
 
-def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=None,
+def compress(setup: Setup, bodies: Bodies, seed: int, show_progress=True, log=None,
              checkpoint=None, interrupt: InterruptFlag | None = None,
              run: Run | None = None) -> dict:
     """Run contact dynamics until jammed (in place). Returns solver statistics.
@@ -203,14 +199,14 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
     Interrupted on a requested interrupt.
     """
     interrupt = interrupt or InterruptFlag()
-    v0 = velocity_scale(scene, bodies)
-    v_tol = scene["jamming.velocity_tol"] * v0
-    run = run if run is not None else start_run(scene, bodies, checkpoint)
-    settings = (scene_box(scene), *step_settings(scene, v0))
+    v0 = velocity_scale(setup, bodies)
+    v_tol = setup.jamming.velocity_tol * v0
+    run = run if run is not None else start_run(setup, bodies, checkpoint)
+    settings = (kernel_box(setup.boundary), *step_settings(setup, v0))
     t0 = time.perf_counter()
-    bar = JamProgress(v_tol, show_progress, run, scene["jamming.max_steps"])
+    bar = JamProgress(v_tol, show_progress, run, setup.jamming.max_steps)
     try:
-        _windows(scene, bodies, run, seed, settings, v_tol, bar, checkpoint, interrupt)
+        _windows(setup, bodies, run, seed, settings, v_tol, bar, checkpoint, interrupt)
     finally:
         bar.close()
     if log is not None:
@@ -225,35 +221,36 @@ def compress(scene: Scene, bodies: Bodies, seed: int, show_progress=True, log=No
             "compress_seconds": time.perf_counter() - t0}
 
 
-def _windows(scene, bodies, run: Run, seed, settings, v_tol, bar, checkpoint, interrupt):
+def _windows(setup: Setup, bodies, run: Run, seed, settings, v_tol, bar, checkpoint,
+             interrupt):
     """The window loop of :func:`compress` (until jammed; run and bodies in place)."""
-    window = scene["jamming.window"]
-    window_time = window * scene["solver.dt"]
+    window = setup.jamming.window
+    window_time = window * setup.solver.dt
     last_save = time.perf_counter()
     chunk = [1]
 
     def save(state):
         if checkpoint:
-            write_checkpoint(checkpoint, scene_identity(scene), state)
+            write_checkpoint(checkpoint, setup.identity, state)
         return f"the run resumes from {checkpoint}" if checkpoint else ""
 
     while run.phase != "jammed":
-        if run.steps >= scene["jamming.max_steps"]:
+        if run.steps >= setup.jamming.max_steps:
             save(snapshot(bodies, run))
-            raise NumericalError(_not_jammed(scene, run, v_tol, checkpoint))
+            raise NumericalError(_not_jammed(setup, run, v_tol, checkpoint))
         before = snapshot(bodies, run)
         start = (before["x"], before["y"], before["th"])
-        st = run_window(scene, bodies, run, seed, settings, chunk, interrupt,
+        st = run_window(window, bodies, run, seed, settings, chunk, interrupt,
                         lambda: save(before))
         run.steps += window
         run.stats = run.stats.merged(st)
-        check_state(scene, bodies, run.steps)
-        v_mean = window_displacement(scene, bodies, start, run.contacts) / window_time
+        check_state(setup, bodies, run.steps)
+        v_mean = window_displacement(setup, bodies, start, run.contacts) / window_time
         run.v_ref = v_mean if not v_mean <= run.v_ref else run.v_ref
         run.log.append((run.steps, v_mean, st.max_speed, st.sweeps_total / window,
                         st.max_rel_change))
         if (run.steps >= run.rest_after and v_mean <= v_tol
-                and load_carried(scene, bodies, run.contacts)):
+                and load_carried(setup, bodies, run.contacts)):
             run.phase = "jammed"
             save(snapshot(bodies, run))
         elif checkpoint and time.perf_counter() - last_save > CHECKPOINT_SECONDS:
@@ -262,18 +259,18 @@ def _windows(scene, bodies, run: Run, seed, settings, v_tol, bar, checkpoint, in
         bar.update(run)
 
 
-def _not_jammed(scene, run: Run, v_tol, checkpoint) -> str:
+def _not_jammed(setup: Setup, run: Run, v_tol, checkpoint) -> str:
     v_mean = run.log[-1][1] if run.log else float("nan")
     capped = int(run.stats.steps_at_sweep_cap)
     return (f"not jammed after jamming.max_steps = {run.steps} steps "
             f"(last mean speed over a window {v_mean:.3g}, tolerance {v_tol:.3g}; {capped} "
-            f"steps hit solver.max_sweeps = {scene['solver.max_sweeps']}); raise "
+            f"steps hit solver.max_sweeps = {setup.solver.max_sweeps}); raise "
             f"jamming.max_steps" + (", solver.max_sweeps" if capped else "")
             + " or the tolerances"
             + (f"; the run resumes from {checkpoint}" if checkpoint else ""))
 
 
-def window_displacement(scene: Scene, bodies: Bodies, start, contacts: ContactForces) -> float:
+def window_displacement(setup: Setup, bodies: Bodies, start, contacts: ContactForces) -> float:
     """Largest displacement [R] over the last window of a disk that bears load or feels
     gravity (centre displacement + r*|rotation|), or of the top plate.
 
@@ -301,41 +298,41 @@ def window_displacement(scene: Scene, bodies: Bodies, start, contacts: ContactFo
     on_wall[np.minimum(a, b)[wall]] = True            # (walls are the slots n..nb-1)
     loaded &= ~(on_wall & (bearing == 1))
     dx = bodies.x[:n] - x0[:n]
-    periodic = scene["box.periodic_x"]
+    (periodic,), (width,) = setup.boundary.periodic, setup.boundary.lateral
     if periodic:
-        dx -= scene["box.width"] * np.round(dx / scene["box.width"])
+        dx -= width * np.round(dx / width)
     plate = abs(bodies.y[n + SLOT_TOP] - y0[n + SLOT_TOP])
     if not loaded.any():
         return float(plate)
-    if periodic and scene["physics.plate_mu"] == 0.0:
+    if periodic and setup.physics.plate_mu == 0.0:
         m = 1.0 / bodies.inv_mx[:n][loaded]      # the kernel's masses (per-disk densities)
         dx = dx - (m * dx[loaded]).sum() / m.sum()
     disp = np.hypot(dx, bodies.y[:n] - y0[:n]) + bodies.r * np.abs(bodies.th[:n] - th0[:n])
     return float(max(disp[loaded].max(), plate))
 
 
-def check_state(scene: Scene, bodies: Bodies, steps: int) -> None:
+def check_state(setup: Setup, bodies: Bodies, steps: int) -> None:
     """NumericalError if the state is non-finite or disks left the box through a
     plate (a time step far too large for the loads: the implicit scheme stays
     stable, but contacts are then missed between steps)."""
     n = bodies.n
     if not (np.isfinite(bodies.x[:n]).all() and np.isfinite(bodies.y).all()):
         raise NumericalError(f"non-finite positions after {steps} steps; reduce solver.dt "
-                             f"(now {scene['solver.dt']:g})")
-    y, r = bodies.y[:n], bodies.r
-    below = scene["plates.bottom"] == "fixed" and (y + r < bodies.y[n + SLOT_BOTTOM]).any()
-    above = scene["plates.top"] == "load" and (y - r > bodies.y[n + SLOT_TOP]).any()
+                             f"(now {setup.solver.dt:g})")
+    y, r, boundary = bodies.y[:n], bodies.r, setup.boundary
+    below = boundary.bottom and (y + r < bodies.y[n + SLOT_BOTTOM]).any()
+    above = boundary.top is not None and (y - r > bodies.y[n + SLOT_TOP]).any()
     if below or above:
         raise NumericalError(f"disks passed through the {'bottom' if below else 'top'} plate "
-                             f"after {steps} steps: solver.dt = {scene['solver.dt']:g} is too "
+                             f"after {steps} steps: solver.dt = {setup.solver.dt:g} is too "
                              f"large for these loads; reduce it")
 
 
-def load_carried(scene: Scene, bodies: Bodies, contacts: ContactForces) -> bool:
+def load_carried(setup: Setup, bodies: Bodies, contacts: ContactForces) -> bool:
     """Whether the packing carries the top plate: its contacts push up with at least
     half the plate load (a plate that has not reached the disks is not at rest,
     even if it moves slowly). True without a top plate."""
-    if scene["plates.top"] != "load":
+    if setup.boundary.top is None:
         return True
     nb = bodies.n + N_WALL_SLOTS
     on_plate = (contacts.keys % nb) == bodies.n + SLOT_TOP

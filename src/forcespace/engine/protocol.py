@@ -37,7 +37,8 @@ from ..errors import NumericalError
 from ..io.checkpoint import remove_checkpoint
 from ..model.packing import Packing
 from ..model.scene import Scene
-from .bodies import (Bodies, check_scene, force_unit, loose_start,  # noqa: F401 (API)
+from ..model.setup import Setup
+from .bodies import (Bodies, check_setup, loose_start,  # noqa: F401 (API)
                      make_bodies, random_radii, row_order)
 from .compress import compress, start_run, unsettle
 from .interrupts import deferred_sigint
@@ -47,51 +48,55 @@ from ..streams import placement_rng
 STATIC_RETRIES = 3       # further compressions after a failed static solve
 UNSETTLE_WINDOWS = 10    # windows without the rest test before each of them
 
-__all__ = ["Bodies", "build_packing", "compress", "force_unit", "jam", "loose_start",
+__all__ = ["Bodies", "Setup", "build_packing", "compress", "jam", "loose_start",
            "make_bodies", "random_radii", "row_order", "static_solve"]
 
 
-def start_bodies(scene: Scene) -> Bodies:
-    """The loose start of a scene: radii, positions and densities from the placement
-    stream of the scene seed, as kernel bodies."""
-    rng = placement_rng(scene["scene.seed"])
-    x, y, r, height = loose_start(scene, rng)
+def start_bodies(setup: Setup) -> Bodies:
+    """The loose start of a setup: radii, positions and densities from the placement
+    stream of its seed, as kernel bodies."""
+    rng = placement_rng(setup.seed)
+    x, y, r, height = loose_start(setup, rng)
     density = None
-    if scene["disks.density_ratio"] != 1.0:      # log-uniform in [density, density*ratio]
-        density = scene["disks.density"] * scene["disks.density_ratio"] ** rng.uniform(0, 1, r.size)
-    return make_bodies(scene, x, y, r, height, density)
+    grains = setup.grains
+    if grains.density_ratio != 1.0:      # log-uniform in [density, density*ratio]
+        density = grains.density * grains.density_ratio ** rng.uniform(0, 1, r.size)
+    return make_bodies(setup, x, y, r, height, density)
 
 
-def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
+def build_packing(scene: Scene | Setup, show_progress=True, checkpoint=None) -> Packing:
     """Run the whole protocol for ``scene`` and return the static packing.
 
-    ``checkpoint``: file for resumable compression (see :func:`compress`); removed once
-    the packing is built. Raises NumericalError (not jammed, static solve or overlap
-    out of tolerance), Interrupted (Ctrl-C; the checkpoint is saved first).
+    The scene is turned into records (:class:`~forcespace.model.setup.Setup`) here, once;
+    everything below runs on them. ``checkpoint``: file for resumable compression (see
+    :func:`compress`); removed once the packing is built. Raises NumericalError (not
+    jammed, static solve or overlap out of tolerance), Interrupted (Ctrl-C; the
+    checkpoint is saved first).
     """
-    check_scene(scene)
-    seed = scene["scene.seed"]
-    bodies = start_bodies(scene)
+    setup = scene if isinstance(scene, Setup) else Setup.from_scene(scene)
+    check_setup(setup)
+    seed = setup.seed
+    bodies = start_bodies(setup)
     t0 = time.perf_counter()
-    tol = scene["jamming.static_tolerance"]
+    tol = setup.jamming.static_tolerance
     with deferred_sigint() as interrupt:
-        run = start_run(scene, bodies, checkpoint)
-        meta = compress(scene, bodies, seed, show_progress, checkpoint=checkpoint,
+        run = start_run(setup, bodies, checkpoint)
+        meta = compress(setup, bodies, seed, show_progress, checkpoint=checkpoint,
                         interrupt=interrupt, run=run)
-        packing, static = static_solve(scene, bodies, seed, show_progress, interrupt)
+        packing, static = static_solve(setup, bodies, seed, show_progress, interrupt)
         # a resumed run brings its retries and earlier compression time (checkpoint)
         seconds = run.seconds_before + meta["compress_seconds"]
         while not static["static_residual"] <= tol and run.retries < STATIC_RETRIES:
             run.retries += 1
-            unsettle(scene, run, UNSETTLE_WINDOWS)
-            meta = compress(scene, bodies, seed, show_progress, checkpoint=checkpoint,
+            unsettle(setup, run, UNSETTLE_WINDOWS)
+            meta = compress(setup, bodies, seed, show_progress, checkpoint=checkpoint,
                             interrupt=interrupt, run=run)
             seconds += meta["compress_seconds"]
-            packing, static = static_solve(scene, bodies, seed, show_progress, interrupt)
+            packing, static = static_solve(setup, bodies, seed, show_progress, interrupt)
         restart = ""
         if not static["static_residual"] <= tol:
             stalled = static["static_residual"]
-            exact = restart_from_exact_point(scene, bodies, packing, seed, show_progress,
+            exact = restart_from_exact_point(setup, bodies, packing, seed, show_progress,
                                              interrupt)
             restart = "S empty" if exact is None else "exact point"
             if exact is not None:
@@ -101,7 +106,7 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
     meta.update(static, compress_seconds=seconds, static_retries=retries,
                 static_restart=restart)
     meta["wall_seconds"] = time.perf_counter() - t0 + run.seconds_before
-    meta["rotation"] = bool(scene.rotation)
+    meta["rotation"] = bool(setup.physics.rotation)
     if not static["static_residual"] <= tol:
         raise NumericalError(
             f"static solve stopped at residual {static['static_residual']:.3g} > "
@@ -112,26 +117,28 @@ def build_packing(scene: Scene, show_progress=True, checkpoint=None) -> Packing:
                if restart == "S empty" else
                f"; restarted from an exact point of S (the LP's) after stalling at "
                f"{stalled:.3g}"))
-    check_overlap(scene, packing)
+    check_overlap(setup, packing)
     packing.meta = meta
     if checkpoint:
         remove_checkpoint(checkpoint)
     return packing
 
 
-def check_overlap(scene: Scene, packing: Packing) -> None:
+def check_overlap(setup: Setup, packing: Packing) -> None:
     """NumericalError if the packing keeps an overlap above ``jamming.max_overlap``: its
     contacts then do not describe rigid disks (e.g. a plate so light, or a step so long,
     that the plate ran into the disks between contact detections)."""
     worst = packing.max_overlap()
-    limit = scene["jamming.max_overlap"]
+    limit = setup.jamming.max_overlap
+    top = setup.boundary.top
     if worst > limit:
+        plate = (f"plates.top_mass = {top.mass:g} and " if top is not None else "")
         raise NumericalError(
             f"the jammed packing keeps an overlap of {worst:.3g} R > jamming.max_overlap = "
-            f"{limit:g} R ({worst / scene['solver.overlap_slop']:.0f} x solver.overlap_slop): "
-            f"not a packing of rigid disks; check plates.top_mass = "
-            f"{scene['plates.top_mass']:g} and solver.dt = {scene['solver.dt']:g} (a light "
-            "plate or a long step overruns the contact margin), or raise jamming.max_overlap")
+            f"{limit:g} R ({worst / setup.solver.overlap_slop:.0f} x solver.overlap_slop): "
+            f"not a packing of rigid disks; check {plate}solver.dt = {setup.solver.dt:g} "
+            "(a light plate or a long step overruns the contact margin), or raise "
+            "jamming.max_overlap")
 
 
 def jam(scene, progress: bool = False, checkpoint=None, **overrides) -> Packing:

@@ -13,8 +13,8 @@ import numpy as np
 
 from ..errors import InputError, NumericalError
 from ..model.packing import Packing
-from ..model.scene import parse_scene_text
-from .bodies import force_unit, make_bodies
+from ..model.setup import Setup
+from .bodies import make_bodies
 from .compress import Run, compress
 from .static import settled_forces, static_solve
 
@@ -33,40 +33,44 @@ class PushResult:
 
 def push(packing: Packing, disk: int, force: float, seed: int = 0,
          max_steps: int = 100_000) -> PushResult:
-    """Contact dynamics of ``packing``'s scene from its state with an extra downward
-    ``force`` [F0] on ``disk``'s centre, until at rest (the scene's jamming criteria)
+    """Contact dynamics of ``packing``'s setup from its state with an extra downward
+    ``force`` [F0] on ``disk``'s centre, until at rest (the setup's jamming criteria)
     or ``max_steps`` steps (then ``at_rest`` is False: the disk keeps moving, e.g.
     creeping through the layer, and the displacements are those reached).
 
-    The dynamics start warm, from the packing's own contact forces: restarted from zero
-    forces, Gauss-Seidel needs many steps to rebuild a thick layer's network and the
-    layer sags meanwhile (at mu = 1 far enough to set disks slipping with no push)."""
-    if not packing.scene_text:
-        raise InputError("packing", "scene_text", "is empty: the packing does not record "
-                         "the scene that made it")
-    scene = parse_scene_text(packing.scene_text).with_overrides(
-        **{"jamming.max_steps": int(max_steps)})
-    if scene["plates.top"] == "load":
+    The setup is the packing's own records (:attr:`Packing.setup`: the engine's, or
+    read from the packing file's scene). The dynamics start warm, from the packing's
+    own contact forces: restarted from zero forces, Gauss-Seidel needs many steps to
+    rebuild a thick layer's network and the layer sags meanwhile (at mu = 1 far enough
+    to set disks slipping with no push)."""
+    setup = packing.setup or Setup.from_text(packing.scene_text)
+    if setup is None:
+        raise InputError("packing", "scene_text", "is empty or not a valid scene: the "
+                         "packing does not record the scene that made it")
+    if setup.boundary.top is not None:
         raise InputError("packing", "plates.top", 'must be "none" (a free surface) for a '
                          "point force")
+    if int(max_steps) < 1:
+        raise InputError("push", "max_steps", "must be an integer >= 1", got=max_steps)
+    setup = setup.with_max_steps(max_steps)
     x0, y0 = np.array(packing.x, float), np.array(packing.y, float)
-    bodies = make_bodies(scene, x0.copy(), y0.copy(), np.asarray(packing.r, float), 0.0,
+    bodies = make_bodies(setup, x0.copy(), y0.copy(), np.asarray(packing.r, float), 0.0,
                          packing.density if np.ndim(packing.density) else None)
-    bodies.fy_ext[disk] -= force / force_unit(scene)
+    bodies.fy_ext[disk] -= force / setup.force_unit
     after = None
     try:
-        stats = compress(scene, bodies, seed, show_progress=False,
-                         run=Run(contacts=settled_forces(packing, scene)))
+        stats = compress(setup, bodies, seed, show_progress=False,
+                         run=Run(contacts=settled_forces(packing, setup)))
     except NumericalError as exc:
         if not np.all(np.isfinite(bodies.y)):
             raise
         stats = {"steps": int(max_steps), "not_at_rest": str(exc)}
     else:
-        after, static = static_solve(scene, bodies, seed, show_progress=False)
+        after, static = static_solve(setup, bodies, seed, show_progress=False)
         stats.update(static)
     dx = bodies.x[:packing.n_disks] - x0
-    if scene["box.periodic_x"]:
-        dx -= scene["box.width"] * np.round(dx / scene["box.width"])
+    (periodic,), (width,) = setup.boundary.periodic, setup.boundary.lateral
+    if periodic:
+        dx -= width * np.round(dx / width)
     disp = np.hypot(dx, bodies.y[:packing.n_disks] - y0)
     return PushResult(displacement=disp, at_rest=after is not None, after=after, stats=stats)
-

@@ -4,7 +4,7 @@ Every kernel of :mod:`forcespace.engine` takes these records instead of loose
 positional arrays. They are ``typing.NamedTuple`` classes of numpy arrays and
 scalars, which numba passes and returns in nopython mode (and caches). Units:
 lengths in R (the smallest radius of the scene's range), masses in rho R^2, forces in
-the engine's internal force unit sigma (:func:`forcespace.engine.protocol.force_unit`),
+the engine's internal force unit sigma (:attr:`forcespace.model.setup.Setup.force_unit`),
 time in T = sqrt(rho R^3 / sigma).
 
 Body layout (every per-body array): disks 0..n-1, then the four wall slots of

@@ -14,11 +14,11 @@ import numpy as np
 
 from ..errors import NumericalError
 from ..model.packing import Packing
-from ..model.scene import Scene
+from ..model.setup import Setup
 from ..model.walls import (N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, kernel_body_index,
                            packing_body_code)
 from ..progress import progress
-from .bodies import Bodies, force_unit, scene_box
+from .bodies import Bodies, kernel_box
 from .contacts import detect_contacts
 from .frozen import FrozenContacts, relax
 from .interrupts import InterruptFlag
@@ -56,7 +56,7 @@ class ResidualProgress:
         self.bar.close()
 
 
-def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True,
+def static_solve(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
                  interrupt: InterruptFlag | None = None):
     """Equilibrium forces on the frozen jammed configuration.
 
@@ -71,9 +71,10 @@ def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True,
     """
     interrupt = interrupt or InterruptFlag()
     n = bodies.n
-    ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r, scene_box(scene),
-                                   scene["jamming.contact_gap_tol"])
-    c = contact_list(ints, floats, bodies.r, scene["physics.mu"], scene["physics.plate_mu"])
+    jamming = setup.jamming
+    ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r, kernel_box(setup.boundary),
+                                   jamming.contact_gap_tol)
+    c = contact_list(ints, floats, bodies.r, setup.physics.mu, setup.physics.plate_mu)
     touched = np.zeros(n + N_WALL_SLOTS, dtype=bool)
     touched[c.a] = touched[c.b] = True
     loose = np.flatnonzero((bodies.fy_ext[:n] != 0) & ~touched[:n])
@@ -91,9 +92,9 @@ def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True,
     system = FrozenContacts(c._replace(gap=np.zeros(c.a.shape[0])), bodies.inv_mx,
                             bodies.inv_my, bodies.inv_i,
                             (np.zeros(nb), bodies.fy_ext * bodies.inv_my, np.zeros(nb)))
-    packing_of = packing_view(scene, bodies, c, ints[:, 2].copy())
+    packing_of = packing_view(setup, bodies, c, ints[:, 2].copy())
     t0 = time.perf_counter()
-    bar = ResidualProgress(scene["jamming.static_tolerance"], show_progress)
+    bar = ResidualProgress(jamming.static_tolerance, show_progress)
 
     def report(sweeps, residual):
         bar(sweeps, residual)
@@ -102,7 +103,7 @@ def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True,
     try:
         res = relax(
             system, rn, rt, lambda rn, rt: packing_of(rn, rt).equilibrium_residual(),
-            scene["jamming.static_tolerance"], scene["jamming.static_max_sweeps"], seed,
+            jamming.static_tolerance, jamming.static_max_sweeps, seed,
             chunk=100, max_chunk=20000, on_chunk=report)
     finally:
         bar.close()
@@ -111,7 +112,7 @@ def static_solve(scene: Scene, bodies: Bodies, seed: int, show_progress=True,
     return packing_of(rn, rt), stats
 
 
-def restart_from_exact_point(scene: Scene, bodies: Bodies, packing: Packing, seed: int,
+def restart_from_exact_point(setup: Setup, bodies: Bodies, packing: Packing, seed: int,
                              show_progress=True, interrupt: InterruptFlag | None = None):
     """The static solve again, from an exact point of S, for a configuration whose
     NLGS from the dynamics' forces stalled above ``jamming.static_tolerance``.
@@ -129,19 +130,20 @@ def restart_from_exact_point(scene: Scene, bodies: Bodies, packing: Packing, see
     from ..model.problem import full_problem, plate_problem
     from ..space.force_space import check_feasible
 
-    build = plate_problem if scene["plates.top"] == "load" else full_problem
-    problem = build(packing, gap_tol=scene["jamming.contact_gap_tol"])
+    build = plate_problem if setup.boundary.top is not None else full_problem
+    problem = build(packing, gap_tol=setup.jamming.contact_gap_tol)
     feasible, x, _ = check_feasible(problem)
     if not feasible:
         return None
     fn, ft = problem.to_packing_forces(x)
-    bodies.contacts = settled_forces(replace(packing, fn=fn, ft=ft), scene)
-    return static_solve(scene, bodies, seed, show_progress, interrupt)
+    bodies.contacts = settled_forces(replace(packing, fn=fn, ft=ft), setup)
+    return static_solve(setup, bodies, seed, show_progress, interrupt)
 
 
-def packing_view(scene: Scene, bodies: Bodies, c: Contacts, image):
+def packing_view(setup: Setup, bodies: Bodies, c: Contacts, image):
     """A function (rn, rt) -> Packing for the frozen configuration and contacts ``c``
-    (their real gaps; ``image`` (Nc,) the periodic images)."""
+    (their real gaps; ``image`` (Nc,) the periodic images). The packing carries
+    ``setup`` and its provenance (scene name, text, seed)."""
     n = bodies.n
     a, b, nx, ny, gap = c.a, c.b, c.nx, c.ny, c.gap
     pa, pb = packing_body_code(a, n), packing_body_code(b, n)
@@ -155,36 +157,38 @@ def packing_view(scene: Scene, bodies: Bodies, c: Contacts, image):
     wa = ~da  # a is a wall: b is a disk
     point[wa, 0] = x[b[wa]] - r[b[wa]] * nx[wa]
     point[wa, 1] = y[b[wa]] - r[b[wa]] * ny[wa]
-    if scene["box.periodic_x"]:
-        point[:, 0] -= scene["box.width"] * np.floor(point[:, 0] / scene["box.width"])
-    sigma = force_unit(scene)
-    density = scene["disks.density"]
-    if scene["disks.density_ratio"] != 1.0:     # per-disk densities, read off the masses
+    boundary, physics, grains = setup.boundary, setup.physics, setup.grains
+    (width,), (periodic,) = boundary.lateral, boundary.periodic
+    if periodic:
+        point[:, 0] -= width * np.floor(point[:, 0] / width)
+    sigma = setup.force_unit
+    density = grains.density
+    if grains.density_ratio != 1.0:     # per-disk densities, read off the masses
         density = 1.0 / (bodies.inv_mx[:n] * np.pi * r**2)
-    y_top = bodies.y[n + SLOT_TOP] if scene["plates.top"] == "load" else np.nan
-    y_bot = bodies.y[n + SLOT_BOTTOM] if scene["plates.bottom"] == "fixed" else np.nan
+    top = boundary.top
+    y_top = bodies.y[n + SLOT_TOP] if top is not None else np.nan
+    y_bot = bodies.y[n + SLOT_BOTTOM] if boundary.bottom else np.nan
 
     def make(rn, rt) -> Packing:
-        return Packing(x=x, y=y, r=r, width=scene["box.width"],
-                       periodic_x=scene["box.periodic_x"], y_bottom=float(y_bot),
-                       y_top=float(y_top),
-                       top_force=scene["plates.top_force"] if scene["plates.top"] == "load" else 0.0,
-                       gravity=scene["physics.gravity"], density=density,
-                       mu=scene["physics.mu"], plate_mu=scene["physics.plate_mu"],
+        return Packing(x=x, y=y, r=r, width=width, periodic_x=periodic,
+                       y_bottom=float(y_bot), y_top=float(y_top),
+                       top_force=top.force if top is not None else 0.0,
+                       gravity=physics.gravity, density=density,
+                       mu=physics.mu, plate_mu=physics.plate_mu,
                        a=pa, b=pb, normal=normal, point=point, image=image, gap=gap,
-                       fn=rn * sigma, ft=rt * sigma, seed=scene["scene.seed"],
-                       scene_text=scene.to_toml(), scene_name=scene.name)
+                       fn=rn * sigma, ft=rt * sigma, seed=setup.seed,
+                       scene_text=setup.text, scene_name=setup.name, setup=setup)
     return make
 
 
-def settled_forces(packing: Packing, scene) -> ContactForces:
+def settled_forces(packing: Packing, setup: Setup) -> ContactForces:
     """The packing's contact forces as the engine's warm start: keys a*nb + b of kernel
-    body indices (sorted), rn, rt [sigma] = fn, ft [F0] / the scene's force unit."""
+    body indices (sorted), rn, rt [sigma] = fn, ft [F0] / the setup's force unit."""
     n = packing.n_disks
     nb = n + N_WALL_SLOTS
     keys = kernel_body_index(packing.a, n) * nb + kernel_body_index(packing.b, n)
     order = np.argsort(keys, kind="stable")
-    sigma = force_unit(scene)
+    sigma = setup.force_unit
     return ContactForces(keys[order].astype(np.int64),
                          np.asarray(packing.fn, float)[order] / sigma,
                          np.asarray(packing.ft, float)[order] / sigma)

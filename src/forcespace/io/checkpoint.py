@@ -36,10 +36,11 @@ CONTACT_FIELDS = {"keys": ("1", "contact key a*(n+4) + b, sorted"),
 LOG_COLUMNS = ("step", "v_mean", "v_max", "sweeps_per_step", "max_rel_change")
 
 
-def write_checkpoint(path, scene: str, state: dict) -> None:
+def write_checkpoint(path, identity: str, state: dict) -> None:
     """Write a compression state atomically.
 
-    ``scene``: the identity string of the scene the state belongs to; ``state``: the
+    ``identity``: the identity string of the scene the state belongs to
+    (:attr:`forcespace.model.setup.Setup.identity`); ``state``: the
     arrays of BODY_FIELDS and CONTACT_FIELDS, ``log`` (k, 5), and scalars ``steps``,
     ``phase`` (str), ``v_first``, ``rest_after`` (the step before which the rest
     criterion is not tested), ``retries`` (static solves that sent the run back),
@@ -48,7 +49,7 @@ def write_checkpoint(path, scene: str, state: dict) -> None:
     written before they existed.
     """
     with atomic_h5(path, {"file_kind": KIND}) as f:
-        f.attrs["scene"] = scene
+        f.attrs["scene"] = identity
         f.attrs["steps"] = int(state["steps"])
         f.attrs["phase"] = str(state["phase"])
         f.attrs["v_first"] = float(state["v_first"])
@@ -67,8 +68,9 @@ def write_checkpoint(path, scene: str, state: dict) -> None:
                       "one row per compression window; speeds in R/T", columns=LOG_COLUMNS)
 
 
-def read_checkpoint(path, scene: str) -> dict | None:
-    """The state saved in ``path`` for ``scene``; None if there is no such file.
+def read_checkpoint(path, identity: str) -> dict | None:
+    """The state saved in ``path`` for the scene of ``identity``; None if there is no
+    such file.
 
     InputError (one line, naming the file) for a file that is not a compression
     checkpoint, lacks a field, or belongs to another scene.
@@ -77,7 +79,7 @@ def read_checkpoint(path, scene: str) -> dict | None:
     if not path.is_file():
         return None
     with open_h5(path, kind=KIND) as f:
-        if f.attrs.get("scene") != scene:
+        if f.attrs.get("scene") != identity:
             raise InputError(path, "scene", "checkpoint belongs to another scene; delete it "
                              "to start afresh")
         try:

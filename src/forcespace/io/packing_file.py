@@ -27,6 +27,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model.scene import SCHEMA_VERSION
+from ..model.setup import Setup
 from .h5 import atomic_h5, open_h5, write_dataset
 from ..model.walls import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES
 from ..model.packing import Packing, check_force_signs, check_packing
@@ -126,7 +127,8 @@ def read_packing(path, kind: str = "packing") -> Packing:
                 seed=int(f.attrs["seed"]), scene_text=str(f.attrs["scene_text"]),
                 scene_name=str(f.attrs["scene_name"]), meta=meta,
                 solver_log=f["solver_log"][()] if "solver_log" in f else None,
-                source=str(path))
+                source=str(path), setup=Setup.from_text(str(f.attrs["scene_text"]),
+                                                        f"{path} (scene_text)"))
         except KeyError as exc:
             raise InputError(path, str(exc.args[0]) if exc.args else "?",
                              "missing from the file; not a complete forcespace packing") from None

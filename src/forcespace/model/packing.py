@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import config
 from ..errors import InputError
-from .scene import parse_scene_text
+from .setup import Setup
 from .walls import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES  # noqa: F401 (re-exported)
 
 
@@ -65,6 +65,9 @@ class Packing:
     # the file it was read from ("" if built in memory): problems built from it name it as
     # their source, so ensembles record the packing file they sample
     source: str = field(default="", compare=False, repr=False)
+    # the scene that made it as records (the engine's, or read from scene_text by
+    # io.packing_file); None for packings from elsewhere (from_arrays, other formats)
+    setup: Setup | None = field(default=None, compare=False, repr=False)
 
     # ---- construction, files, figures ----------------------------------------
     @classmethod
@@ -141,13 +144,10 @@ class Packing:
     def scene_slice_height(self) -> float | None:
         """``[analysis] slice_height`` of the scene that made this packing [R], or None
         (absent, 0, or no readable scene stored)."""
-        if not (self.scene_text or "").strip():
+        setup = self.setup or Setup.from_text(self.scene_text)
+        if setup is None:   # no scene, or one that does not validate: no default
             return None
-        try:
-            h = parse_scene_text(self.scene_text)["analysis.slice_height"]
-        except InputError:  # a scene text that does not validate just means "no default"
-            return None
-        return h if h > 0 else None
+        return setup.slice_height if setup.slice_height > 0 else None
 
     # ---- derived quantities -------------------------------------------------
     @property

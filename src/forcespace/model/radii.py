@@ -26,14 +26,13 @@ from ..errors import InputError
 DISTRIBUTIONS = ("uniform", "bidisperse", "lognormal")
 
 
-def draw_radii(scene, rng) -> np.ndarray:
-    """Radii (n,) [R] of a validated scene (``disks.*`` keys), drawn from ``rng``
-    (a ``numpy.random.Generator``) by the scene's ``disks.distribution``."""
-    return radii(scene["disks.distribution"], scene["disks.n"], scene["disks.radius_min"],
-                 scene["disks.radius_max"], rng,
-                 small_fraction=scene["disks.small_fraction"],
-                 lognormal_sigma=scene["disks.lognormal_sigma"],
-                 lognormal_median=scene["disks.lognormal_median"])
+def draw_radii(grains, rng) -> np.ndarray:
+    """Radii (n,) [R] of :class:`~forcespace.model.setup.Grains` (a scene's ``disks.*``
+    keys), drawn from ``rng`` (a ``numpy.random.Generator``) by its distribution."""
+    g = grains
+    return radii(g.distribution, g.n, g.radius_min, g.radius_max, rng,
+                 small_fraction=g.small_fraction, lognormal_sigma=g.lognormal_sigma,
+                 lognormal_median=g.lognormal_median)
 
 
 def radii(distribution: str, n: int, radius_min: float, radius_max: float, rng=None, *,
