@@ -258,9 +258,9 @@ def _verdicts(results: list[dict], stats_mu: dict, min_pushes: int):
         diffs = {e: stats.difference_interval(deep[e], deep[CLAIM_MU]) for e in ends}
         numbers["deep_fraction_minus_at_0.1"] = {f"{e:g}": list(v) for e, v in diffs.items()}
         if all(v[1] > 0 for v in diffs.values()):
-            ours = "reproduced"
+            ours = "supported"
         elif any(v[2] < 0 for v in diffs.values()):
-            ours = "refuted"
+            ours = "not supported"
         else:
             ours = "not decidable"
         verdicts.append(Verdict(
@@ -271,8 +271,8 @@ def _verdicts(results: list[dict], stats_mu: dict, min_pushes: int):
                 f"mu = {e:g} minus mu = 0.1: {v[0]:+.2f} [{v[1]:+.2f}, {v[2]:+.2f}]"
                 for e, v in diffs.items()), ours, kind="ours",
             rule=f"both 95 % bootstrap intervals of (fraction deeper than {DEEP:g} R at "
-                 f"mu = {ends[0]:g}, resp. {ends[1]:g}) minus (at mu = 0.1) above 0; refuted "
-                 f"if either lies below 0. Censoring-proof: a region cut off by the floor "
+                 f"mu = {ends[0]:g}, resp. {ends[1]:g}) minus (at mu = 0.1) above 0; not "
+                 f"supported if either lies below 0. Censoring-proof: a region cut off by the floor "
                  f"(>= {MIN_THICKNESS:g} R down) is deeper than {DEEP:g} R either way"))
     return numbers, verdicts
 

@@ -200,6 +200,25 @@ def pooled_fraction(hits, totals, n_boot: int = N_BOOT, seed: int = 0):
     return float(h.sum() / t.sum()), *np.quantile(boots, [0.025, 0.975]).tolist()
 
 
+def trend_test(x, y, level: float = 0.01) -> dict:
+    """Is y monotonic in x, over every point (packing)? Kendall's tau-b between x and y
+    (ties, e.g. a grid of x and y = 0, handled by tau-b) and its one-sided p-values:
+    {tau, p_decreasing, p_increasing, points, call}, call "decreases" / "increases" when
+    the one-sided p is below ``level``, else "no trend"; nan below 3 points."""
+    from scipy.stats import kendalltau
+
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    if x.size < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
+        return {"tau": float("nan"), "p_decreasing": float("nan"),
+                "p_increasing": float("nan"), "points": int(x.size), "call": "no trend"}
+    tau = float(kendalltau(x, y).statistic)
+    p_dec = float(kendalltau(x, y, alternative="less").pvalue)
+    p_inc = float(kendalltau(x, y, alternative="greater").pvalue)
+    call = "decreases" if p_dec < level else "increases" if p_inc < level else "no trend"
+    return {"tau": tau, "p_decreasing": p_dec, "p_increasing": p_inc, "points": int(x.size),
+            "call": call}
+
+
 def all_of(*verdicts: str) -> str:
     """A claim made of several conditions (each an :func:`interval_verdict`): refuted if
     one is refuted, reproduced if every one is, else not decidable."""

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from forcespace_studies import pointforce
+from forcespace_studies.report import RULES_VERSION
 
 
 def layer(mu, seed, depth, censored=False, **kw):
@@ -53,12 +54,12 @@ def test_summary_counts_medians_and_a_shallow_mu_near_0_1(tmp_path):
     assert st[1.0]["censored_fraction"] == pytest.approx(2 / 6)
     summary, doc = summarize(tmp_path, res)
     assert summary["failed"] == 1 and summary["pushed"] == 18
-    assert doc["rules_version"] == 2 and doc["numbers"]["tasks_failed"] == 1
+    assert doc["rules_version"] == RULES_VERSION and doc["numbers"]["tasks_failed"] == 1
     assert "mu1_s7: NumericalError" in doc["numbers"]["failed"][0]
     paper, ours = doc["verdicts"]
     assert paper["kind"] == "paper" and paper["verdict"] == "reproduced"
     assert doc["numbers"]["shallowest_median_mu"]["mu"] == 0.1
-    assert ours["kind"] == "ours" and ours["verdict"] == "reproduced"
+    assert ours["kind"] == "ours" and ours["verdict"] == "supported"      # rule 3
     assert (tmp_path / "pointforce.png").is_file()
     assert "1 of 23 tasks failed" in doc["text"]
 
@@ -70,7 +71,7 @@ def test_summary_refutes_a_minimum_at_an_end_and_censoring_undecides(tmp_path):
     _, doc = summarize(tmp_path / "a", res)
     paper, ours = doc["verdicts"]
     assert doc["numbers"]["shallowest_median_mu"]["mu"] == 1.0
-    assert paper["verdict"] == "refuted" and ours["verdict"] == "refuted"
+    assert paper["verdict"] == "refuted" and ours["verdict"] == "not supported"
     # the shallowest mu has half its pushes cut off by the floor (a thin layer): its
     # median is only a lower bound, the claim is not decidable
     res = results({0.01: [20, 25, 30, 35, 40, 45], 0.1: [5, 5, 5, 8, 8, 8],
