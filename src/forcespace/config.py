@@ -14,6 +14,15 @@ FORCE_BEARING = 1e-9        # [<Fn>] a contact with fn above this carries load; 
                             # no such contact is a rattler (excluded from z and from S)
 FN_ROUND_OFF = 1e-6         # [1] a stored normal force below -FN_ROUND_OFF x mean |fn| is
                             # tension (a file edited or negated), not the solver's round-off
+UNIT_NORMAL_TOL = 1e-6      # [1] a stored contact normal whose length is further from 1 is
+                            # not a unit vector (files store normals to full precision)
+
+# ---- making packings (engine) ------------------------------------------------------------
+STATIC_RETRIES = 3          # [compressions] further compressions after a failed static solve
+                            # (a configuration that only looked at rest: a creep paused for
+                            # a window); then the exact LP of S decides
+UNSETTLE_WINDOWS = 10       # [windows] the rest test is suspended for this many windows
+                            # before each retry, so the creep shows again
 
 # ---- linear algebra of S (ranks, null spaces) ------------------------------------------
 RANK_TOL = 1e-10            # [1] singular value s counts when s > RANK_TOL * s_max * max(shape)
@@ -28,6 +37,13 @@ SWEEP_MARGIN = 100.0        # [1] a sweep whose rank decision came within this f
                             # threshold is redone by the dense SVD
 SWEEP_CHUNK_ROWS = 96       # [rows] per sweep step (96 measured 2x faster than 48 at 5000 disks)
 SWEEP_LIVE_TOL = 1e-12      # [1] a null vector with frontier weight below this is final
+PIVOT_TOL = 1e-9            # [1] a pivot (|diagonal| of a pivoted QR or LU of null-space rows)
+                            # below this x the largest is a dependent direction, not a basis
+                            # column (elementary clusters and their circuits)
+NEW_DIRECTION_TOL = 1e-6    # [1] a circuit adds a direction to a domain's basis when its part
+                            # outside the chosen ones exceeds this x its norm
+MOVING_ROW_TOL = 1e-10      # [1] a column whose null-space row has a smaller norm is constant
+                            # on S's affine hull (no range LP asked for it)
 
 # ---- the exact analysis of S (LPs) -------------------------------------------------------
 IMPLICIT_TOL = 1e-9         # [<Fn>] an inequality whose slack never exceeds this on S is an
@@ -49,12 +65,23 @@ CIRCUIT_TOL = 1e-6          # [1] entries of a fundamental circuit below this x 
                             # round-off couplings, not support
 SUPPORT_TOL = 1e-7          # [1] entries of an L1-minimal circuit below this x its largest
                             # are round-off, not support
+RECESSION_SUPPORT_TOL = 1e-9  # [1] entries of a recession direction of S below this x its
+                            # largest are round-off (its reported support)
+TRUSTED_POINT = 1e-2        # [VARY_TOL] a point of S that spares range LPs violates S by at
+                            # most this x the range tolerance (HiGHS' optima can miss S by
+                            # 1e-6 <Fn> on ill-conditioned slices, mu = 10)
+HULL_CENTRE_MAX_COLUMNS = 6000  # [columns] above: no centre of S's affine hull by the dense
+                            # least-squares fallback (it solves the equalities densely)
 
 # ---- projection onto S ------------------------------------------------------------------
 KKT_TOL = 1e-9              # [1] stationarity residual (relative) that verifies a projection
 ACTIVE_TOL = 1e-7           # [<Fn>] rows this close to tight start the active-set polish
 POLISH_FEASIBLE = 1e-11     # [<Fn>] a polished point violating a row by more adds it
 SLIDE_TOL = 1e-9            # [<Fn>] selection: a Coulomb row with less slack is active
+TIGHT_TOL = 1e-9            # [<Fn>] a row of S with less slack is tight when the KKT residual of
+                            # a projection is checked (a larger violation: not a projection)
+LDP_INFEASIBLE = 1e-14      # [1] the least-distance problem's NNLS residual component below
+                            # this: the constraints are infeasible (Lawson-Hanson's test)
 
 # ---- sampling ------------------------------------------------------------------------------
 SAMPLE_VIOLATION = 1e-9     # [<Fn>] every stored sample violates S by at most this (checked)
@@ -79,10 +106,20 @@ RELAX_STALL_SWEEPS = 20_000  # [sweeps] relax walk: no 1 % progress in this many
 RHAT_MAX = 1.05             # [1] chains whose split R-hat (rank-normalised, folded) exceeds
                             # this on any tracked statistic have not mixed
 MIN_ESS = 100.0             # [samples] effective sample size a converged run reaches on every
-                            # tracked statistic (bulk and tail)
+                            # tracked statistic (bulk and tail): the default target of
+                            # diagnostics.converged and the studies' rule 4
+N_PROJECTIONS = 4           # [statistics] random projections tracked besides |x - mean|^2 (a
+                            # walk stuck along one direction shows in some projection)
+STORED_SAMPLE_SLACK = 1e-6  # [1] a stored sample re-checked on reading may violate S by this
+                            # much more (relative) than recorded: BLAS round-off of another
+                            # thread count, not a changed file
 MIN_DRAWS_PER_CHAIN = 100   # [samples] a target-ESS run stops no earlier: ESS estimated from
                             # shorter chains runs high (dim 1344: ESS "100" after 50 draws per
                             # chain was 77 on the longer run)
+
+# ---- files ---------------------------------------------------------------------------------
+FORCE_MATCH_TOL = 1e-9      # [<Fn>] an ensemble's jammed forces and its packing's differ by at
+                            # most this when the ensemble belongs to the packing
 
 # ---- point force ----------------------------------------------------------------------------
 DISPLACED = 0.1             # [R] a disk moved by more than this took part in a rearrangement

@@ -2,6 +2,8 @@
 import numpy as np
 import pytest
 
+from forcespace import config
+
 from forcespace.engine.protocol import build_packing, compress, make_bodies, static_solve
 from forcespace.model.walls import BOTTOM, LEFT, RIGHT
 from forcespace.io.packing_file import read_packing, write_packing
@@ -269,13 +271,13 @@ def test_a_failed_static_solve_sends_the_packing_back_to_compress(monkeypatch):
     p = build_packing(scene, show_progress=False)
     assert len(residuals) == 2 and p.meta["static_retries"] == 1
     window = scene["jamming.window"]
-    assert p.meta["steps"] >= fresh.meta["steps"] + protocol.UNSETTLE_WINDOWS * window
+    assert p.meta["steps"] >= fresh.meta["steps"] + config.UNSETTLE_WINDOWS * window
     assert p.meta["steps"] == len(p.solver_log) * window     # one log row per window
     assert p.equilibrium_residual() <= scene["jamming.static_tolerance"]
 
 
 def test_a_static_solve_that_keeps_failing_is_refused_after_the_retries():
-    from forcespace.engine.protocol import STATIC_RETRIES
+    from forcespace.config import STATIC_RETRIES
     from forcespace.errors import NumericalError
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14,     # nothing meets it
                                                 "jamming.static_tolerance": 1e-300,
@@ -320,7 +322,7 @@ def test_a_resumed_jam_keeps_its_static_retries_and_its_earlier_time(tmp_path, m
     monkeypatch.setattr(protocol, "static_solve", stalls)
     p = build_packing(scene, show_progress=False, checkpoint=ck)
     assert len(solves) == 2                       # the stalled one and one retry
-    assert p.meta["static_retries"] == protocol.STATIC_RETRIES
+    assert p.meta["static_retries"] == config.STATIC_RETRIES
     assert p.meta["static_restart"] == "exact point"
     assert p.meta["compress_seconds"] >= 100 and p.meta["wall_seconds"] >= 100
 
@@ -346,7 +348,7 @@ def test_a_static_solve_that_stalls_restarts_from_an_exact_point_of_S(monkeypatc
     monkeypatch.setattr(force_space, "check_feasible", feasible)
     p = build_packing(scene, show_progress=False)
     assert len(points) == 1 and points[0][0]        # one LP, and S is not empty
-    assert p.meta["static_retries"] == protocol.STATIC_RETRIES
+    assert p.meta["static_retries"] == config.STATIC_RETRIES
     assert p.meta["static_restart"] == "exact point"
     assert p.meta["static_residual"] <= scene["jamming.static_tolerance"]
     assert p.equilibrium_residual() <= scene["jamming.static_tolerance"]

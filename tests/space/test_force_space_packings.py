@@ -143,7 +143,7 @@ def test_varying_contacts_by_few_lps_match_the_full_range_table(name, height, mo
         # a trusted point misses S by <= TRUSTED_POINT * VARY_TOL and moved constant
         # contacts by about as much (1.06e-8 at mu = 10): widths agree to 10x that,
         # decisions exactly
-        slack = 10 * F.TRUSTED_POINT * config.VARY_TOL
+        slack = 10 * config.TRUSTED_POINT * config.VARY_TOL
         np.testing.assert_allclose(w[ran], exact[ran], atol=slack)
         assert np.all(exact[~ran] >= w[~ran] - slack) and np.all(w[~ran] > config.VARY_TOL)
         np.testing.assert_array_equal(w > config.VARY_TOL, exact > config.VARY_TOL)

@@ -9,9 +9,9 @@
 4. A static solve that ends above ``jamming.static_tolerance`` means the configuration
    only looked at rest (a slow creep that paused for a window; at mu = 1, n = 800 such
    a configuration admitted no static network at all): the compression goes on, the rest
-   criterion suspended for ``UNSETTLE_WINDOWS`` windows, and the static solve is tried
-   again, up to ``STATIC_RETRIES`` times (counted in ``meta["static_retries"]``; a run
-   resumed from its checkpoint keeps its count, and ``meta["compress_seconds"]`` and
+   criterion suspended for ``config.UNSETTLE_WINDOWS`` windows, and the static solve is
+   tried again, up to ``config.STATIC_RETRIES`` times (counted in
+   ``meta["static_retries"]``; a run resumed from its checkpoint keeps its count, and ``meta["compress_seconds"]`` and
    ``meta["wall_seconds"]`` include the time the run took in the processes before). A
    packing whose first static solve succeeds is unchanged by this.
    If the last one fails too, the exact LP of S decides
@@ -33,6 +33,7 @@ import time
 
 import numpy as np
 
+from .. import config
 from ..errors import NumericalError
 from ..io.checkpoint import remove_checkpoint
 from ..model.packing import Packing
@@ -44,9 +45,6 @@ from .compress import compress, start_run, unsettle
 from .interrupts import deferred_sigint
 from .static import restart_from_exact_point, static_solve
 from ..streams import placement_rng
-
-STATIC_RETRIES = 3       # further compressions after a failed static solve
-UNSETTLE_WINDOWS = 10    # windows without the rest test before each of them
 
 __all__ = ["Bodies", "Setup", "build_packing", "compress", "jam", "loose_start",
            "make_bodies", "random_radii", "row_order", "static_solve"]
@@ -86,9 +84,9 @@ def build_packing(scene: Scene | Setup, show_progress=True, checkpoint=None) -> 
         packing, static = static_solve(setup, bodies, seed, show_progress, interrupt)
         # a resumed run brings its retries and earlier compression time (checkpoint)
         seconds = run.seconds_before + meta["compress_seconds"]
-        while not static["static_residual"] <= tol and run.retries < STATIC_RETRIES:
+        while not static["static_residual"] <= tol and run.retries < config.STATIC_RETRIES:
             run.retries += 1
-            unsettle(setup, run, UNSETTLE_WINDOWS)
+            unsettle(setup, run, config.UNSETTLE_WINDOWS)
             meta = compress(setup, bodies, seed, show_progress, checkpoint=checkpoint,
                             interrupt=interrupt, run=run)
             seconds += meta["compress_seconds"]
@@ -111,7 +109,8 @@ def build_packing(scene: Scene | Setup, show_progress=True, checkpoint=None) -> 
         raise NumericalError(
             f"static solve stopped at residual {static['static_residual']:.3g} > "
             f"jamming.static_tolerance after {static['static_sweeps']} sweeps"
-            + (f", also after {retries} further compressions of {UNSETTLE_WINDOWS}+ windows"
+            + (f", also after {retries} further compressions of {config.UNSETTLE_WINDOWS}+ "
+               "windows"
                if retries else "")
             + ("; the exact LP finds no static network of this configuration (S is empty)"
                if restart == "S empty" else

@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import config
 from ..errors import InputError
 from ..model.walls import BOTTOM, LEFT, RIGHT, TOP, contact_mu_array
 from ..plot import branch_segments
@@ -97,7 +98,7 @@ def ensemble_columns(packing, ensemble) -> dict:
                          f"(0..{p.n_contacts - 1}); the ensemble belongs to another packing")
     xj = np.asarray(ens.x_jammed, float).reshape(-1, 2)
     scale = max(abs(ens.force_scale), 1e-300)
-    if k.size and np.abs(xj[:, 0] - p.fn[k]).max() > 1e-9 * scale:
+    if k.size and np.abs(xj[:, 0] - p.fn[k]).max() > config.FORCE_MATCH_TOL * scale:
         raise InputError(src, "problem/x_jammed", "does not match this packing's normal "
                          "forces; the ensemble belongs to another packing")
     if ens.n_samples == 0:

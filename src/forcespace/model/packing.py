@@ -215,11 +215,13 @@ class Packing:
         """Largest overlap (negative gap) among the contacts [R]; 0 if none."""
         return float(max(0.0, -self.gap.min(initial=0.0)))
 
-    def force_bearing(self, rel_threshold: float = 1e-9) -> np.ndarray:
-        """Mask (Nc,) of contacts whose normal force exceeds threshold * mean force."""
-        return self.fn > rel_threshold * max(self.mean_normal_force(), 1e-300)
+    def force_bearing(self, rel_threshold: float | None = None) -> np.ndarray:
+        """Mask (Nc,) of contacts whose normal force exceeds threshold * mean force
+        (default ``config.FORCE_BEARING``)."""
+        threshold = config.FORCE_BEARING if rel_threshold is None else rel_threshold
+        return self.fn > threshold * max(self.mean_normal_force(), 1e-300)
 
-    def rattlers(self, rel_threshold: float = 1e-9) -> np.ndarray:
+    def rattlers(self, rel_threshold: float | None = None) -> np.ndarray:
         """Boolean mask (n,) of rattlers: disks that carry no load.
 
         Convention: a rattler has no force-bearing contact (fn above
@@ -233,7 +235,7 @@ class Packing:
         carrying[self.b[live & (self.b >= 0)]] = True
         return ~carrying
 
-    def coordination(self, rel_threshold: float = 1e-9) -> float:
+    def coordination(self, rel_threshold: float | None = None) -> float:
         """z = 2 Nc / n over non-rattler disks, Nc = force-bearing contacts among them.
 
         Disk-wall contacts count as full contacts, so an isostatic frictionless
@@ -261,8 +263,8 @@ class Packing:
             "n_force_bearing": int(self.force_bearing().sum()),
             "z": self.coordination(),
             "z_convention": "2*Nc/n over non-rattlers, Nc force-bearing contacts "
-                            "(fn > 1e-9 <Fn>), wall contacts count; rattler: a disk with no "
-                            "force-bearing contact (carries no load)",
+                            f"(fn > {config.FORCE_BEARING:g} <Fn>), wall contacts count; "
+                            "rattler: a disk with no force-bearing contact (carries no load)",
             "n_rattlers": int(rat.sum()),
             "mu": self.mu,
             "plate_mu": self.plate_mu,
@@ -373,7 +375,8 @@ def check_packing(p: Packing, source="packing") -> Packing:
         if not np.all(np.isfinite(getattr(p, name))):
             bad(f"contacts/{name}" if name not in ("fn", "ft") else "forces",
                 "must be finite (found NaN/inf)")
-    if nc and np.abs(np.hypot(p.normal[:, 0], p.normal[:, 1]) - 1.0).max() > 1e-6:
+    if nc and np.abs(np.hypot(p.normal[:, 0], p.normal[:, 1]) - 1.0).max() > \
+            config.UNIT_NORMAL_TOL:
         bad("contacts/normal", "must be unit vectors")
     return p
 

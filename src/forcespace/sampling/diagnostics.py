@@ -29,8 +29,6 @@ from .. import config
 from ..measures import eta as eta_fn
 from ..streams import projection_generator
 
-N_PROJECTIONS = 4
-
 
 def _arviz():
     with warnings.catch_warnings():
@@ -39,8 +37,10 @@ def _arviz():
     return arviz
 
 
-def projection_directions(dim: int, n_proj: int = N_PROJECTIONS, seed: int = 0) -> np.ndarray:
-    """(n_proj, dim) fixed random unit directions for the ``proj*`` statistics."""
+def projection_directions(dim: int, n_proj: int | None = None, seed: int = 0) -> np.ndarray:
+    """(n_proj, dim) fixed random unit directions for the ``proj*`` statistics
+    (default ``config.N_PROJECTIONS`` of them)."""
+    n_proj = config.N_PROJECTIONS if n_proj is None else n_proj
     R = projection_generator(seed).normal(size=(n_proj, dim))
     return R / np.linalg.norm(R, axis=1, keepdims=True)
 
@@ -55,7 +55,7 @@ def by_chain(samples, chains) -> np.ndarray:
     return np.stack([p[:k] for p in per]) if per else np.zeros((0, 0, X.shape[1]))
 
 
-def tracked_statistics(X, n_proj: int = N_PROJECTIONS, seed: int = 0) -> dict:
+def tracked_statistics(X, n_proj: int | None = None, seed: int = 0) -> dict:
     """{name: (chains, draws)}: ``sqdev`` and ``proj0..`` of X (chains, draws, D)."""
     X = np.asarray(X, float)
     mean = X.reshape(-1, X.shape[2]).mean(0)
@@ -98,9 +98,11 @@ def summarize(stats: dict) -> dict:
             "worst": min(finite, key=finite.get) if finite else None}
 
 
-def converged(summary: dict, target_ess: float, rhat_max: float | None = None) -> bool:
-    """Every tracked statistic has bulk and tail ESS >= target_ess and R-hat <= rhat_max
-    (default ``config.RHAT_MAX``)."""
+def converged(summary: dict, target_ess: float | None = None,
+              rhat_max: float | None = None) -> bool:
+    """Every tracked statistic has bulk and tail ESS >= target_ess (default
+    ``config.MIN_ESS``) and R-hat <= rhat_max (default ``config.RHAT_MAX``)."""
+    target_ess = config.MIN_ESS if target_ess is None else target_ess
     rhat_max = config.RHAT_MAX if rhat_max is None else rhat_max
     return bool(np.isfinite(summary["min_ess"]) and summary["min_ess"] >= target_ess
                 and summary["max_rhat"] <= rhat_max)

@@ -53,7 +53,8 @@ def _verify_stored(ensemble: Ensemble, problem, path) -> None:
     its recorded violation and ``config.SAMPLE_VIOLATION``, plus round-off)."""
     for k, (x, v) in enumerate(zip(ensemble.samples, ensemble.violations)):
         now = problem.violation(x)
-        if not now <= max(float(v), config.SAMPLE_VIOLATION) * (1 + 1e-6) + 1e-15:
+        allowed = max(float(v), config.SAMPLE_VIOLATION) * (1 + config.STORED_SAMPLE_SLACK)
+        if not now <= allowed + 1e-15:
             raise InputError(path, f"samples[{k}]", f"is not in S of this problem (violation "
                              f"{now:.3g} <Fn>, recorded {float(v):.3g}): the file was "
                              "changed; delete it to sample again")

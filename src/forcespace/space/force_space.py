@@ -199,7 +199,6 @@ def _varying(problem: StaticsProblem, N, max_sum_fn, radius, ranges=None,
     return varying
 
 
-TRUSTED_POINT = 1e-2   # a point of S that spares LPs violates S by at most this x VARY_TOL
 
 
 def _lp_widths(problem: StaticsProblem, contacts, tol: float, points=(),
@@ -210,7 +209,7 @@ def _lp_widths(problem: StaticsProblem, contacts, tol: float, points=(),
     Every LP optimum is a point of S, and so are ``points`` (e.g. the affine point and the
     Chebyshev centre): a contact whose fn or ft already differs by more than ``tol``
     between points found so far varies, and its own LPs (min and max of fn and ft) are
-    skipped. Only points that violate S by at most ``TRUSTED_POINT * tol`` count: HiGHS'
+    skipped. Only points that violate S by at most ``config.TRUSTED_POINT * tol`` count: HiGHS'
     optima can miss S by 1e-6 <Fn> on ill-conditioned slices (mu = 10), and a point that
     far outside moved a contact constant in S (range 1e-8) by 1.3e-6.
 
@@ -234,7 +233,7 @@ def _lp_widths(problem: StaticsProblem, contacts, tol: float, points=(),
                if hull is not None and hull.shape[1] <= config.REDUCED_LP_MAX_DIM
                else lambda col, sgn: _column_extreme(problem, G, bnds, col, sgn))
     seen_lo, seen_hi = np.full(m2, np.inf), np.full(m2, -np.inf)
-    trusted = TRUSTED_POINT * tol
+    trusted = config.TRUSTED_POINT * tol
 
     def see(x):
         nonlocal seen_lo, seen_hi
@@ -334,7 +333,7 @@ def _column_ranges(problem: StaticsProblem, N=None, xa=None, columns=None):
     bnds = bounds_list(lo, hi)
     m2 = problem.n_columns
     rng = np.full((m2, 2), np.nan)
-    moving = np.ones(m2, dtype=bool) if N is None else np.linalg.norm(N, axis=1) > 1e-10
+    moving = np.ones(m2, dtype=bool) if N is None else np.linalg.norm(N, axis=1) > config.MOVING_ROW_TOL
     if xa is not None:
         rng[~moving] = xa[~moving, None]
     todo = np.flatnonzero(moving) if columns is None else np.asarray(columns, dtype=np.int64)
@@ -391,14 +390,13 @@ def _chebyshev_centre(problem: StaticsProblem, N=None, implicit_rows=None,
     # a thin S (radius ~1e-10 <Fn>) can leave HiGHS "Unknown" on every attempt in the full
     # space (n = 400, mu = 1: dim S 2); in the hull's own coordinates the LP has d + 1
     # unknowns and no equalities
-    hull = _hull_centre(Gf, Eq, rhs, N, lo, hi, r_max) if m2 <= HULL_CENTRE_MAX_COLUMNS \
+    hull = _hull_centre(Gf, Eq, rhs, N, lo, hi, r_max) if m2 <= config.HULL_CENTRE_MAX_COLUMNS \
         else None
     if hull is None:
         raise NumericalError(f"Chebyshev-centre LP failed: {res.message}")
     return hull
 
 
-HULL_CENTRE_MAX_COLUMNS = 6000   # the fallback below solves the equalities densely
 
 
 def _hull_centre(Gf, Eq, rhs, N, lo, hi, r_max):
@@ -705,7 +703,7 @@ class ForceSpace(Computed):
             d["infeasibility"] = r["infeasibility"]
         rd = r.get("recession_direction")
         if rd is not None:
-            d["recession_direction_support"] = int((np.abs(rd) > 1e-9 * np.abs(rd).max()).sum())
+            d["recession_direction_support"] = int((np.abs(rd) > config.RECESSION_SUPPORT_TOL * np.abs(rd).max()).sum())
         if r.get("feasible") and r.get("dim") is not None and not self._status:
             doms = self.domains
             d.update({"n_domains": len(doms), "domain_dims": [g.dim for g in doms],

@@ -109,7 +109,7 @@ def _ldp_projection(problem: StaticsProblem, xhat, frame: _Frame):
     e[-1] = 1.0
     v, _ = nnls(Ep, e, maxiter=50 * Ep.shape[1])
     r = Ep @ v - e
-    if abs(r[-1]) < 1e-14:
+    if abs(r[-1]) < config.LDP_INFEASIBLE:
         raise NumericalError("projection: the constraints look infeasible (LDP)")
     z = -r[:d] / r[-1] * scale
     return xa + N @ (ystar + z), np.flatnonzero(v > 0), _reduced_kkt(M, u, ystar + z, z, scale)
@@ -117,12 +117,12 @@ def _ldp_projection(problem: StaticsProblem, xhat, frame: _Frame):
 
 def _reduced_kkt(M, u, y, z, scale) -> float:
     """KKT stationarity residual of min ||y - y*|| s.t. M y <= u at y = y* + z: with
-    the rows tight to 1e-9 <Fn>, NNLS for lam >= 0 in z = -M_act^T lam; the residual
-    relative to max(|z|, <Fn>). inf if y is infeasible by more than 1e-9 <Fn>."""
+    the rows tight to ``config.TIGHT_TOL`` <Fn>, NNLS for lam >= 0 in z = -M_act^T lam;
+    the residual relative to max(|z|, <Fn>). inf if y is infeasible by more than that."""
     slack = M @ y - u
-    if slack.max(initial=0.0) > 1e-9 * scale:
+    if slack.max(initial=0.0) > config.TIGHT_TOL * scale:
         return float("inf")
-    act = np.flatnonzero(slack > -1e-9 * scale)
+    act = np.flatnonzero(slack > -config.TIGHT_TOL * scale)
     if act.size == 0:
         return float(np.linalg.norm(z)) / max(float(np.linalg.norm(z)), scale)
     Mt = M[act].T
@@ -137,8 +137,9 @@ def eq_projection(xhat, Ceq, ceq, Gact):
     c = np.concatenate([ceq, np.zeros(Gact.shape[0])])
     # cond: rows that are dependent up to round-off (e.g. both Coulomb rows and
     # a balance row through one contact) must not be amplified into big steps
-    xn = xhat - sla.lstsq(C, C @ xhat - c, cond=1e-11, lapack_driver="gelsd")[0]
-    return xn - sla.lstsq(C, C @ xn - c, cond=1e-11, lapack_driver="gelsd")[0]
+    cond = config.RANGE_RANK_TOL
+    xn = xhat - sla.lstsq(C, C @ xhat - c, cond=cond, lapack_driver="gelsd")[0]
+    return xn - sla.lstsq(C, C @ xn - c, cond=cond, lapack_driver="gelsd")[0]
 
 
 def _multipliers(Q, Gact, rhs):
@@ -155,7 +156,7 @@ def _multipliers(Q, Gact, rhs):
         return np.zeros(0), float(np.linalg.norm(br)), np.zeros(0)
     colscale = np.maximum(np.linalg.norm(Bt, axis=0), 1e-300)
     lam, res = nnls(Bt / colscale, br, maxiter=50 * Bt.shape[1])
-    free = sla.lstsq(Bt / colscale, br, cond=1e-11, lapack_driver="gelsd")[0]
+    free = sla.lstsq(Bt / colscale, br, cond=config.RANGE_RANK_TOL, lapack_driver="gelsd")[0]
     return lam / colscale, float(res), free / colscale
 
 

@@ -98,7 +98,7 @@ def domains(problem, analysis, tol: float | None = None) -> list[Domain]:
     # reduced form R = B^-1 N^T whose rows are the fundamental circuits
     _, rq, perm = sla.qr(Nv.T, mode="economic", pivoting=True)
     diag = np.abs(np.diag(rq))
-    rank = int((diag > 1e-9 * max(diag[0], 1e-300)).sum())
+    rank = int((diag > config.PIVOT_TOL * max(diag[0], 1e-300)).sum())
     piv = np.sort(perm[:rank])
     R = sla.lstsq(Nv.T[:, piv], Nv.T)[0]                   # (rank, 2m)
     Rc = np.sqrt(R[:, 0::2] ** 2 + R[:, 1::2] ** 2)        # per contact (rank, m)
@@ -156,7 +156,7 @@ def _fundamental_supports_lu(Nv, vary, tol):
     p, L, U = sla.lu(Nv, p_indices=True)                   # Nv = L[p] U, L (2m, d)
     P = np.argsort(p)                                      # Nv[P] = L U
     diag = np.abs(np.diag(U))
-    if d == 0 or diag.min() <= 1e-9 * max(diag.max(), 1e-300):
+    if d == 0 or diag.min() <= config.PIVOT_TOL * max(diag.max(), 1e-300):
         return None
     # rows P[:d] of Nv form the basis B = L1 U; R = B^-T-reduced = L1^-T L^T (permuted)
     L1 = L[:d]
@@ -311,7 +311,7 @@ def decompose(problem, analysis, packing=None, tol: float | None = None) -> Clus
         Nv = Nv.reshape(N.shape)
         null = _least_directions(Nv[outside], g.dim) if outside.size else np.eye(N.shape[1])
         B = Nv[cols] @ null                                 # (q, k) spans the domain
-        B = sla.orth(B, rcond=1e-9)[:, :g.dim] if B.shape[1] > g.dim else B
+        B = sla.orth(B, rcond=config.PIVOT_TOL)[:, :g.dim] if B.shape[1] > g.dim else B
         # pivot columns of a well-conditioned basis: one L1-minimal circuit through
         # each, plus the fundamental circuits (which always span the domain)
         _, _, perm = sla.qr(B.T, mode="economic", pivoting=True)
@@ -322,7 +322,7 @@ def decompose(problem, analysis, packing=None, tol: float | None = None) -> Clus
         chosen, Q = [], np.zeros((B.shape[0], 0))
         for v in candidates:                      # greedy: keep what adds a direction
             r = v - Q @ (Q.T @ v)
-            if np.linalg.norm(r) > 1e-6 * np.linalg.norm(v):
+            if np.linalg.norm(r) > config.NEW_DIRECTION_TOL * np.linalg.norm(v):
                 chosen.append(v)
                 Q = np.column_stack([Q, r / np.linalg.norm(r)])
             if len(chosen) == g.dim:
