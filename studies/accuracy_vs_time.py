@@ -2,11 +2,11 @@
 
 On the paper's 200-disk packings (studies/packings/paper_mu0.1.h5, paper_mu0.h5) the
 accuracy of a force network is its distance to the plate S of the packing
-(``forcespace.statics.plate_problem``; exact projection ``forcespace.polytope.distance_to_S``,
+(``forcespace.plate_problem``; exact projection ``forcespace.extend.distance_to_S``,
 rms per contact in units of the rigid <Fn>; soft contacts the rigid packing lacks are
 dropped, see ``forcespace_adapters.distance``). Against wall time [s]:
 
-1. our static solve (``forcespace.jamming.static_solve``: NLGS on the frozen jammed
+1. our static solve (``forcespace.extend.static_solve``: NLGS on the frozen jammed
    configuration, cold start from zero forces), one solve per sweep cap, with its
    equilibrium residual beside the distance;
 2. LIGGGHTS, one run per stiffness kn = K <Fn>/R (kt = 2/7 kn, stop at a residual of
@@ -86,9 +86,7 @@ def static_curve(p, S, caps, seed=1) -> list:
     """Cold-start static solves on the packing's configuration, one per sweep cap
     (tolerance 1e-13, stop at the first cap the solve converges under). Rows: cap,
     sweeps, seconds [s], residual (relative equilibrium residual), distance [<Fn>]."""
-    from forcespace.engine.protocol import make_bodies, static_solve
-    from forcespace.model.scene import parse_scene_text
-    from forcespace.model.setup import Setup
+    from forcespace.extend import make_bodies, parse_scene_text, Setup, static_solve
     scene = parse_scene_text(p.scene_text)
 
     def solve(cap):
@@ -282,7 +280,7 @@ def plot(res: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from forcespace.plot import save_figure
+    from forcespace.extend import save_figure
     names = list(res["packings"])
     fig, axes = plt.subplots(1, len(names), figsize=(6.2 * len(names), 4.8), squeeze=False)
     for ax, name in zip(axes[0], names):

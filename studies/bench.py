@@ -23,11 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from forcespace import __version__, read_packing
-from forcespace.plot import save_figure
-from forcespace.engine.protocol import build_packing, make_bodies, static_solve
-from forcespace.model.packing import Packing
-from forcespace.model.scene import load_scene
-from forcespace.model.setup import Setup
+from forcespace.extend import build_packing, make_bodies, save_figure, static_solve
+from forcespace import load_scene, Packing
+from forcespace.extend import Setup
 
 OUT = Path(__file__).parent / "out"
 
@@ -88,7 +86,7 @@ def scaling(p: Packing, tiles=(1, 5, 10, 25), sample_tiles=(1, 3, 6), height=28.
     log CPU time against log n over the largest two sizes.
     """
     from forcespace import ForceSpace, HitAndRun, slice_problem
-    from forcespace.space.structure import domains
+    from forcespace.extend import domains
 
     def clock():
         return time.process_time(), time.perf_counter()
@@ -185,7 +183,7 @@ def analysis_scaling(p: Packing, tiles=(1, 5, 10, 25), old_max_tiles=10, height=
     import os
 
     from forcespace import ForceSpace, config, slice_problem
-    from forcespace.space.structure import domains
+    from forcespace.extend import domains
 
     default = config.SWEEP_MIN_COLUMNS
 

@@ -5,7 +5,7 @@ Usage::
     python studies/bench_select.py [PACK.h5 ...] [--slice 28] [--repeat 3]
 
 For each packing (default: the three seed-1 paper packings) and kt/kn in {2/7, 1}:
-the compatible network of the slice by (a) ``forcespace.select`` (null-space
+the compatible network of the slice by (a) ``forcespace.Selection`` (null-space
 least-distance programming + verified active-set polish, scipy only) and (b)
 Clarabel 0.11 (interior point; ``pip install clarabel``, not a forcespace
 dependency), both at <Fn> = 1. Reported: wall time (best of ``--repeat``),
@@ -74,22 +74,20 @@ def main(argv=None):
     ap.add_argument("--slice", type=float, default=28.0)
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args(argv)
-    from forcespace.io.packing_file import read_packing
-    from forcespace.space.UNKNOWN import _unit
-    from forcespace.space.selection import select
-    from forcespace.model.problem import slice_problem
+    from forcespace import Selection, read_packing, slice_problem
+    from forcespace.extend import unit_problem
 
     rows = []
     for path in args.packings:
         prob = slice_problem(read_packing(path), args.slice)
-        P, _ = _unit(prob)
+        P, _ = unit_problem(prob)
         m = P.n_contacts
         for ratio in (2 / 7, 1.0):
             kn, kt = np.ones(m), np.full(m, ratio)
             t_a, t_b = [], []
             for _ in range(args.repeat):
                 t = time.perf_counter()
-                S = select(P, ratio)
+                S = Selection(kt_ratio=ratio).compute(P)
                 t_a.append(time.perf_counter() - t)
                 t = time.perf_counter()
                 xb, status = clarabel_select(P, kn, kt)

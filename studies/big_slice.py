@@ -18,11 +18,9 @@ import pstats
 import time
 from pathlib import Path
 
-from forcespace import read_packing, slice_problem
-from forcespace.sampling.hit_and_run import HitAndRun
-from forcespace.space.structure import domains
-from forcespace.io.h5 import atomic_path
-from forcespace.space.force_space import ForceSpace
+from forcespace import HitAndRun, read_packing, slice_problem
+from forcespace.extend import atomic_path, domains
+from forcespace import ForceSpace
 
 
 def atomic_write_text(path, text: str) -> None:

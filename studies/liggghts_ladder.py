@@ -27,7 +27,7 @@ from pathlib import Path
 def run_one(packing_path: str, K: float, tolerance: float, work: str,
             remeasure: bool = False) -> dict:
     """One ladder run; returns its record (JSON-ready)."""
-    from forcespace.io.packing_file import read_packing
+    from forcespace import read_packing
     from forcespace_adapters import compare, liggghts as L, make_problem, soft_problem
 
     p = read_packing(packing_path)

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 import forcespace as fs
-from forcespace.sampling.diagnostics import by_chain
+from forcespace.extend import by_chain
 
 HERE = Path(__file__).parent
 BIG = HERE / "big_slice" / "paper_fast_n5000_mu0.1_s1.h5"

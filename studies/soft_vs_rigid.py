@@ -69,7 +69,7 @@ def _landing(p, soft, S, centre):
     """Where in S the soft network lands: distances of its projection onto S from the
     centre of S (Chebyshev centre) and from the jammed contact-dynamics state, and of
     the jammed state from the centre -- all rms per contact in units of <Fn>."""
-    from forcespace.space.projection import distance_to_S
+    from forcespace.extend import distance_to_S
     from forcespace_adapters.distance import soft_vector
     prob, x, _ = soft_vector(p, soft, S)
     y = distance_to_S(prob, x).nearest
@@ -96,7 +96,7 @@ def main(argv=None):
     ap.add_argument("--kn-ladder", type=float, nargs="+", default=[1e3, 1e4, 1e5, 1e6, 1e7])
     ap.add_argument("--quick", action="store_true", help="pymunk at one setting only")
     args = ap.parse_args(argv)
-    from forcespace.io.packing_file import read_packing
+    from forcespace import read_packing
     out = Path(args.out)
     (out / "runs").mkdir(parents=True, exist_ok=True)
     rows = []
@@ -109,7 +109,7 @@ def main(argv=None):
         S_cache = {}
         from forcespace_adapters.distance import make_problem
         S_cache["plate"] = make_problem(p, "plate")
-        from forcespace.space.force_space import ForceSpace
+        from forcespace import ForceSpace
         centre = ForceSpace(ranges=False).compute(S_cache["plate"]).centre
         softs = {}
         rigid_viol = S_cache["plate"].violation(S_cache["plate"].forces_from_packing(p.fn, p.ft))

@@ -14,7 +14,7 @@ from __future__ import annotations
 import sys
 
 from forcespace.errors import NumericalError
-from forcespace.io.jsonfile import dumps
+from forcespace.extend import dumps
 
 
 def print_json(obj) -> None:
@@ -76,7 +76,7 @@ def _cmd_import(args):
 
 
 def _cmd_distance(args):
-    from forcespace.io.packing_file import read_packing
+    from forcespace import read_packing
 
     from .distance import compare, make_problem
     soft = read_packing(args.soft, kind="soft_network")

@@ -1,13 +1,13 @@
 """Distance of a soft force network from the rigid packing's force ensemble S.
 
-Uses only forcespace's public statics API and ``forcespace.polytope.distance_to_S``
+Uses only forcespace's public statics API and ``forcespace.extend.distance_to_S``
 (exact Euclidean projection). Two ensembles of the full packing:
 
 * ``top="plate"`` (default, matches the soft runs with a load-controlled top
-  plate): ``forcespace.statics.plate_problem`` -- TOP contacts are unknowns too (friction
+  plate): ``forcespace.plate_problem`` -- TOP contacts are unknowns too (friction
   plate_mu) and one extra row holds the plate's vertical balance
   sum(fn_top) = top_force. This is S of the paper's protocol.
-* ``top="loads"``: ``forcespace.statics.full_problem`` -- TOP contact forces
+* ``top="loads"``: ``forcespace.full_problem`` -- TOP contact forces
   held fixed at their jammed values (a subset of the above).
 
 relative_distance = ||x - P_S(x)|| / (<Fn> sqrt(m)): the rms per-contact
@@ -32,7 +32,7 @@ import numpy as np
 
 import forcespace as fs
 from forcespace.errors import InputError
-from forcespace.model.packing import Packing
+from forcespace import Packing
 
 from .matching import MatchResult, match_contacts
 
@@ -66,7 +66,7 @@ def compare(rigid: Packing, soft: Packing, problem=None,
     ``forcespace.space.projection.distance_to_S`` (exact, KKT-verified). ``verdict``:
     whether the network is inside S at the soft code's own accuracy (:func:`verdict`).
     """
-    from forcespace.space.projection import distance_to_S
+    from forcespace.extend import distance_to_S
     prob, x, m = soft_vector(rigid, soft, problem)
     viol = prob.violation(x)
     d = distance_to_S(prob, x)

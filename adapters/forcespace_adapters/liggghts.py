@@ -65,11 +65,11 @@ from pathlib import Path
 
 import numpy as np
 
-from forcespace.io.outputs import check_output_dir, mark_run_dir
+from forcespace.extend import check_output_dir, mark_run_dir
 
 from forcespace.errors import ForcespaceError, InputError
-from forcespace.model.walls import BOTTOM, TOP
-from forcespace.model.packing import Packing
+from forcespace.extend import BOTTOM, TOP
+from forcespace import Packing
 
 from .problem import SoftProblem, check_options
 
@@ -507,7 +507,7 @@ def _run_streaming(cmd, d: Path, timeout, on_line) -> int:
 def _deck_progress(d: Path, show: bool):
     """A line handler that moves a progress bar along the thermo lines (step, atoms, ke,
     max residual, ...) of a deck's run; ``None`` closes the bar."""
-    from forcespace.progress import progress
+    from forcespace.extend import progress
 
     try:
         meta = json.loads((d / "deck.json").read_text())

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from forcespace.model.packing import Packing
+from forcespace import Packing
 
 
 @dataclass

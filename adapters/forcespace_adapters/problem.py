@@ -22,7 +22,7 @@ which disks move, the fixed loads on them, and which plates remain walls.
   plate) becomes a fixed load with its torque ``-r*ft`` (frictional loads);
   no walls remain.
 
-Sign conventions are those of :mod:`forcespace.packing`. Loads are forces
+Sign conventions are those of :mod:`forcespace.model.packing`. Loads are forces
 on the disks [F0], torques [F0 R] (counter-clockwise positive).
 """
 from __future__ import annotations
@@ -32,8 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from forcespace.errors import InputError
-from forcespace.model.walls import LEFT, RIGHT, TOP
-from forcespace.model.packing import Packing
+from forcespace.extend import LEFT, RIGHT, TOP
+from forcespace import Packing
 
 
 def check_options(options, checks, source="options") -> None:

@@ -31,8 +31,8 @@ import numpy as np
 import pymunk
 
 from forcespace.errors import InputError
-from forcespace.model.walls import BOTTOM, TOP
-from forcespace.model.packing import Packing
+from forcespace.extend import BOTTOM, TOP
+from forcespace import Packing
 
 from .problem import SoftProblem, check_options
 

@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from forcespace.errors import InputError
-from forcespace.model.packing import Packing
-from forcespace.io.outputs import check_output_dir, check_output_file, mark_run_dir
-from forcespace.io.packing_file import read_packing, write_packing
+from forcespace import Packing
+from forcespace.extend import check_output_dir, check_output_file, mark_run_dir
+from forcespace import read_packing, write_packing
 
 from . import liggghts
 from .problem import soft_problem

@@ -2,7 +2,13 @@
 
 
 class ForcespaceError(Exception):
-    """Base class of every error forcespace reports to a user."""
+    """Base class of every error forcespace reports to a user.
+
+    ``exit_code`` and ``kind``: what the command line exits with and the word it prints
+    before the message (a plug-in's own errors set theirs)."""
+
+    exit_code = 2
+    kind = "error"
 
 
 class InputError(ForcespaceError):
@@ -26,11 +32,8 @@ class InputError(ForcespaceError):
 class NumericalError(ForcespaceError):
     """A computation produced a non-finite value or failed to converge where it must."""
 
-
-class ClusterError(ForcespaceError):
-    """The workers a study runs on are unusable: a Dask scheduler that cannot be reached or
-    is not one, no worker left within the study's timeout, a local worker process that
-    died. The tasks done so far are kept; rerunning resumes (CLI exit 4)."""
+    exit_code = 3
+    kind = "not converged"
 
 
 def require_int(source, field, value, minimum: int, meaning: str = ""):

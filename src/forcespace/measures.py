@@ -1,6 +1,6 @@
 """Measures of the force ensemble: eta, indeterminacy structure, difference fields.
 
-Samples are arrays (k, 2m) in problem column order (statics.py): columns
+Samples are arrays (k, 2m) in problem column order (:mod:`forcespace.model.problem`): columns
 2j, 2j+1 are fn, ft of unknown contact j [F0].
 
 eta (the paper's force ambiguity, Eq. 2), exactly:

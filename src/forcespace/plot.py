@@ -200,8 +200,8 @@ def plot_difference(packing: Packing, problem, x1, x2, domains=None, ax=None,
                     title: str | None = None, clusters=None):
     """The signed difference x2 - x1 of two networks of ``problem`` (each (2m,) [F0]):
     normal-force differences red (+) / blue (-), width by magnitude, with the
-    disks of each domain (:class:`forcespace.measures.Domain`) outlined, and the
-    elementary clusters (:class:`forcespace.clusters.Cluster` with ``elementary``)
+    disks of each domain (:class:`forcespace.space.structure.Domain`) outlined, and the
+    elementary clusters (:class:`forcespace.space.structure.Cluster` with ``elementary``)
     inside them dashed in black. Returns the Axes."""
     from matplotlib.patches import Patch
 

@@ -1,7 +1,7 @@
 """The research studies of forcespace: a plug-in over its public API.
 
 ``forcespace study NAME`` (registered through the ``forcespace.commands`` entry point)
-runs a study's tasks with :mod:`forcespace.sweep`.
+runs a study's tasks with :mod:`forcespace_studies.runner`.
 
 Each study module has ``tasks(quick: bool) -> list[Task]`` and
 ``summarize(results, out) -> dict`` (tables and figures under ``out``).

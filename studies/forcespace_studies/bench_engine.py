@@ -43,10 +43,9 @@ from pathlib import Path
 import numpy as np
 
 from forcespace import read_packing
-from forcespace.engine.bodies import row_order
-from forcespace.engine.nlgs import add_contact_velocities, solve
-from forcespace.engine.records import Contacts, Motion, SweepSettings
-from forcespace.model.walls import N_WALL_SLOTS, SLOT_TOP, kernel_body_index
+from forcespace.extend import (add_contact_velocities, Contacts, kernel_body_index, Motion,
+                               N_WALL_SLOTS, nlgs_solve as solve, row_order, SLOT_TOP,
+                               SweepSettings)
 
 OLD_COMMIT = "938734f"
 PACKINGS = {200: "studies/packings/paper_mu0.1.h5",

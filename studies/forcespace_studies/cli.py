@@ -16,7 +16,7 @@ DESCRIPTION = {
 
 
 def register(sub) -> None:
-    from forcespace.sweep import CONNECT_TIMEOUT, WORKER_TIMEOUT
+    from .runner import CONNECT_TIMEOUT, WORKER_TIMEOUT
 
     from . import STUDIES
     p = sub.add_parser("study", help="run a study sweep (resumable; local pool or Dask), or "
@@ -69,7 +69,7 @@ def _study_dir(args) -> Path:
     from pathlib import Path
 
     from forcespace.errors import InputError
-    from forcespace.sweep import check_study_dir
+    from .runner import check_study_dir
 
     from .report import STUDY_FILE, check_report_file, study_info
 
@@ -110,8 +110,7 @@ def _study_dir(args) -> Path:
 
 def _write_study_file(d, name: str, quick: bool, mod, n_tasks: int) -> None:
     from forcespace import __version__
-    from forcespace.io.h5 import code_version
-    from forcespace.io.jsonfile import write_json
+    from forcespace.extend import code_version, write_json
 
     from .report import STUDY_FILE
 
@@ -129,8 +128,8 @@ def cmd_study(args) -> int:
     import threading
 
     from forcespace.errors import InputError, NumericalError, require_int
-    from forcespace.io.jsonfile import dumps
-    from forcespace.sweep import (check_scheduler_address, done_tasks, run_tasks,
+    from forcespace.extend import dumps
+    from .runner import (check_scheduler_address, done_tasks, run_tasks,
                                   study_lock)
 
     from . import STUDIES

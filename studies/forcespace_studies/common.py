@@ -9,8 +9,7 @@ from pathlib import Path
 import forcespace as fs
 from forcespace import config, jam, read_packing, write_packing
 from forcespace.errors import InputError
-from forcespace.io.outputs import file_lock
-from forcespace.model.scene import parse_scene_text
+from forcespace.extend import file_lock, parse_scene_text
 
 
 def packing_path(out, scene: str, mu: float, seed: int, n_disks: int) -> Path:

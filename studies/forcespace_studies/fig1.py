@@ -15,9 +15,8 @@ from pathlib import Path
 import numpy as np
 
 import forcespace as fs
-from forcespace.linalg import rank
-from forcespace.model.walls import BOTTOM, TOP
-from forcespace.sweep import Task
+from forcespace.extend import BOTTOM, TOP, rank
+from .runner import Task
 
 from . import stats
 from .common import SAMPLERS, determinate, run_samplers, sampler, shared_packing
@@ -224,7 +223,7 @@ def _by_mu_table(own, eta, band) -> list[dict]:
 def _figure(out, own, squares, floor_rows, eta, band, numbers) -> None:
     from matplotlib.figure import Figure
 
-    from forcespace.plot import LABELS as PLOT_LABELS, save_figure
+    from forcespace.extend import LABELS as PLOT_LABELS, save_figure
 
     fig = Figure(figsize=(15, 4.6))
     ax1, ax2, ax3 = fig.subplots(1, 3)

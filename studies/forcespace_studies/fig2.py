@@ -27,9 +27,8 @@ import numpy as np
 
 import forcespace as fs
 from forcespace.errors import ForcespaceError, NumericalError
-from forcespace.space.projection import distance_to_S
-from forcespace.space.structure import decompose, extreme_pair
-from forcespace.sweep import Task
+from forcespace.extend import decompose, distance_to_S, extreme_pair
+from .runner import Task
 
 from . import fig1, stats
 from .common import shared_packing
@@ -451,7 +450,7 @@ def _same_domains(ind, numbers) -> list[Verdict]:
 def _figure(out, by_mu, localised=None) -> None:
     from matplotlib.figure import Figure
 
-    from forcespace.plot import save_figure
+    from forcespace.extend import save_figure
 
     mus = [b["mu"] for b in by_mu]
     fig = Figure(figsize=(15, 4.4))
@@ -546,7 +545,7 @@ def _draw_examples(rows, out) -> bool:
     0.1 and 0.5."""
     from matplotlib.figure import Figure
 
-    from forcespace.plot import save_figure
+    from forcespace.extend import save_figure
 
     cand = [r for r in rows if r.get("dim_S")]
     if not cand:

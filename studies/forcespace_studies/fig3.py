@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 import forcespace as fs
-from forcespace.sweep import Task
+from .runner import Task
 
 from . import stats
 from .common import SAMPLERS, packing_path, run_samplers, sampler, shared_packing
@@ -185,7 +185,7 @@ def summarize(results: list[dict], out) -> dict:
     """fig3.csv, fig3.png/.pdf, verdicts.json and section.md under ``out``."""
     from matplotlib.figure import Figure
 
-    from forcespace.plot import save_figure
+    from forcespace.extend import save_figure
     from .report import RULES_VERSION, write_csv, write_section
 
     out = Path(out)

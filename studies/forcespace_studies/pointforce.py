@@ -34,10 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from forcespace import config as fs_config
-from forcespace.engine.push import push
-from forcespace.measures import rearrangement_depth, surface_disk
-from forcespace.space.loads import max_point_force
-from forcespace.sweep import Task
+from forcespace.extend import max_point_force, push, rearrangement_depth, surface_disk
+from .runner import Task
 
 from .common import shared_packing
 
@@ -318,7 +316,7 @@ def _figure(out, results, stats_mu) -> None:
     from matplotlib.figure import Figure
     from matplotlib.ticker import FormatStrFormatter, LogLocator
 
-    from forcespace.plot import save_figure
+    from forcespace.extend import save_figure
 
     mus = [m for m, s in stats_mu.items() if s.get("depth_median") is not None]
     s = [stats_mu[m] for m in mus]

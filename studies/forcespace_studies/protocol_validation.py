@@ -61,9 +61,7 @@ def slice_dim(prob) -> int:
     (problem scaled to <Fn> = 1, implicit equalities by LP, the rank of [A; fixed
     columns; implicit rows]) without the rest of the analysis: its varying-contact LPs
     (one pair per undecided column) took over 10 CPU minutes on some 800-disk slices."""
-    from forcespace.linalg import affine_hull
-    from forcespace.space.force_space import implicit_equalities
-    from forcespace.space.lp import eq_system, unit_problem
+    from forcespace.extend import affine_hull, eq_system, implicit_equalities, unit_problem
     P, scale = unit_problem(prob)
     G, _owner, _kind = P.inequalities()
     Eq, rhs = eq_system(P, G[implicit_equalities(P)])
@@ -82,10 +80,9 @@ def one(protocol: str, n: int, seed: int, scene_file: str = "paper_fast", mu: fl
     deterministic and every scene key is checked; its row has cpu_s None (not timed)."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from forcespace import write_packing
-    from forcespace.engine.protocol import build_packing
+    from forcespace.extend import build_packing
     from forcespace.errors import NumericalError
-    from forcespace.model.problem import slice_problem
-    from forcespace.model.scene import load_scene
+    from forcespace import load_scene, slice_problem
 
     from .common import jam_lock, packing_path, reused
     scene, _ = load_scene(scene_file).scaled_to(n)
@@ -190,7 +187,10 @@ def parse_overrides(text: str) -> dict:
     """"key=value,key=value" -> {key: value}, each value read as a scene file reads it
     (TOML: 1e-8 a float, 2000 an integer, true a boolean), unquoted text as a string
     ("" -> {})."""
-    from forcespace.model.scene import tomllib      # the scene files' TOML reader
+    try:                                            # the scene files' TOML reader
+        import tomllib
+    except ModuleNotFoundError:                     # Python 3.10
+        import tomli as tomllib
     out = {}
     for item in filter(None, (t.strip() for t in text.split(","))):
         key, sep, value = item.partition("=")
@@ -230,7 +230,7 @@ def main(argv=None) -> int:
                tuple(a.protocols.split(",")), a.scene, a.mu,
                {"reference": ref, "candidate": cand}, a.keep)
     if a.reference == "issue22" and not cand:
-        from forcespace.model.scene import load_scene
+        from forcespace import load_scene
         sc = load_scene(a.scene)
         changed = {k: sc[k] for k in REFERENCE}
         head = (f"# Protocol validation: paper_fast before and after issue 22\n\n"

@@ -21,8 +21,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from forcespace.errors import InputError
-from forcespace.io.h5 import atomic_path, code_version
-from forcespace.io.jsonfile import jsonable
+from forcespace.extend import atomic_path, code_version, jsonable
 
 from .literature import LITERATURE
 
@@ -236,7 +235,7 @@ class Verdict:
 def check_report_file(path, field: str = "-o/--output") -> Path:
     """InputError unless ``path`` may receive a report: absent, or a report written here
     (its first line is :data:`MARKER`); a user's own file is never replaced."""
-    from forcespace.io.outputs import check_output_file
+    from forcespace.extend import check_output_file
 
     p = check_output_file(path, field=field)
     if p.exists():

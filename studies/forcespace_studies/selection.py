@@ -3,7 +3,7 @@
 Tasks: one per (mu, seed), seed-major (every mu of seed 1, then of seed 2, ...), so an
 interrupted run holds complete seed rounds: a packing jammed from the bundled scene
 and kept in the task's directory, its plate S
-(``forcespace.statics.plate_problem``: the S of the soft runs, whose top plate is
+(``forcespace.plate_problem``: the S of the soft runs, whose top plate is
 load-controlled), and per kt/kn:
 
 * ``lig``: LIGGGHTS (hooke/stiffness, tangential history, load ramped in) down the
@@ -12,7 +12,7 @@ load-controlled), and per kt/kn:
   label (:func:`landing`): "converged" when the run also met LIGGGHTS' own stop test
   (static residual and plate force within tolerance), "landed" when it stopped at the
   step cap (its distance to S is stated), "not landed" when no K of the ladder landed;
-* ``sel``: :func:`forcespace.select` -- minimum complementary energy over S,
+* ``sel``: :class:`forcespace.Selection` -- minimum complementary energy over S,
   springs starting stress-free (depends on kt/kn only);
 * ``sel_ov``: the same with the springs starting from the rigid packing's own
   overlaps/gaps at LIGGGHTS' kn (that is what the soft run starts from:
@@ -50,10 +50,9 @@ from pathlib import Path
 import numpy as np
 
 import forcespace as fs
-from forcespace.space.force_space import chebyshev_centre, implicit_equalities
-from forcespace.space.projection import distance_to_S
-from forcespace.space.selection import packing_overlaps
-from forcespace.sweep import Task
+from forcespace.extend import (chebyshev_centre, distance_to_S, implicit_equalities,
+                               packing_overlaps)
+from .runner import Task
 
 from .common import shared_packing
 from .stats import binomial_interval, bootstrap_mean, majority_call, packings_to_decide
@@ -169,7 +168,7 @@ def nonassociated(S, kn, kt, overlap, sliding, sign, opened):
     """Linear springs with true (non-associated) Coulomb sliding on a given set.
 
     Sticking contacts: fn/kn = overlap + n.(u_a - u_b), ft/kt from the slip
-    (the compatibility rows of :mod:`forcespace.selection`); ``sliding`` (m,)
+    (the compatibility rows of :mod:`forcespace.space.selection`); ``sliding`` (m,)
     contacts: fn as before, ft = sign mu fn (free slip, no dilatancy);
     ``opened`` contacts: fn = ft = 0. A square linear system in (x, u),
     solved by least squares (mechanisms leave u, not x, undetermined).
@@ -644,7 +643,7 @@ def _protocol(rows, results) -> str:
         f"and the run met its own stop test; **landed** — it landed but the run stopped at "
         f"the step cap (the distance is stated); **not landed** — no K of the ladder "
         f"landed (the packing leaves the verdict, its closest run is listed). The "
-        f"elastic selection (sel) is `forcespace.select`: minimum complementary energy of "
+        f"elastic selection (sel) is `forcespace.Selection`: minimum complementary energy of "
         f"linear springs (kt/kn as in LIGGGHTS) over S, springs starting stress-free.")
 
 
@@ -712,7 +711,7 @@ def _figure(rows, judged, out) -> None:
     from matplotlib.figure import Figure
     from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
 
-    from forcespace.plot import save_figure
+    from forcespace.extend import save_figure
 
     fig = Figure(figsize=(15, 5))
     ax, bx = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.5, 1]})

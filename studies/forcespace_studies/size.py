@@ -16,7 +16,7 @@ Tasks: one per (n, mu, seed), seed-major (every size and mu of seed 1, then of s
 shape: width and slice height scale by sqrt(n / n0) from the scene's own n0
 (:meth:`Scene.scaled_to`; paper: n0 = 200, width 42 R, slice 28 R), so the slice holds
 the same fraction of the disks at every n. Per packing: jam (resumable through a
-compression checkpoint), the slice's S (:func:`forcespace.polytope.analyze`), its
+compression checkpoint), the slice's S (:class:`forcespace.ForceSpace`), its
 domains (contacts whose force varies in S) and percolation, elementary clusters (rho)
 where dim S is small enough, and uniform eta from the billiard walk at every size and
 from coordinate hit-and-run (the reference) up to ``har_max_n`` disks; each sampler runs
@@ -38,10 +38,9 @@ from pathlib import Path
 import numpy as np
 
 import forcespace as fs
-from forcespace import config as fs_config
-from forcespace.measures import eta as eta_of
-from forcespace.space.structure import ClusterDecomposition, decompose, domains, percolates
-from forcespace.sweep import Task
+from forcespace import config as fs_config, eta as eta_of
+from forcespace.extend import ClusterDecomposition, decompose, domains, percolates
+from .runner import Task
 
 from .common import run_samplers, sampler, shared_packing
 from .report import Verdict
@@ -718,7 +717,7 @@ def _eta_panel(ax, rows, by_n, fits, mus, scope, win):
 def _figure(out, rows, by_n, fits, mus) -> None:
     from matplotlib.figure import Figure
 
-    from forcespace.plot import save_figure
+    from forcespace.extend import save_figure
 
     win = (rows[0]["window_width"], rows[0]["window_height"])
     fig = Figure(figsize=(13, 9.5))

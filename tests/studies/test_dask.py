@@ -161,7 +161,7 @@ def test_a_scheduler_without_workers_is_one_line(tmp_path, cluster):
 
 
 def test_a_worker_that_does_not_see_the_study_directory_is_named(tmp_path):
-    from forcespace.sweep import _probe_worker
+    from forcespace_studies.runner import _probe_worker
     msg = _probe_worker(str(tmp_path / "elsewhere"), "abc")
     assert "does not see the study directory" in msg and "shared" in msg
     (tmp_path / ".forcespace-probe-abc").write_text("abc")

@@ -16,7 +16,7 @@ import pytest
 
 import forcespace_studies
 from forcespace.cli import main
-from forcespace.sweep import Task, done_tasks, run_tasks
+from forcespace_studies.runner import Task, done_tasks, run_tasks
 
 TESTS = Path(__file__).resolve().parents[1]
 HERE = Path(__file__).resolve().parent
@@ -304,7 +304,7 @@ def test_every_task_runs_with_one_blas_thread_also_in_process(tmp_path):
 
 def test_a_task_runs_once_whoever_calls_and_no_lock_file_is_left(tmp_path):
     import threading
-    from forcespace.sweep import execute
+    from forcespace_studies.runner import execute
     import tiny_study
     out = tmp_path / "s"
     (task,) = tiny_study.tasks(True)[:1]
@@ -327,7 +327,7 @@ def test_a_task_records_its_own_cpu_time_not_its_sleep_nor_a_busy_neighbour(tmp_
     # on a shared machine a task's CPU time is the fair measure of its cost: a second
     # of sleep costs none, and a thread spinning beside it in the same process is not it
     import threading
-    from forcespace.sweep import execute
+    from forcespace_studies.runner import execute
     import tiny_study
     monkeypatch.setenv("TINY_STUDY_SLEEP", "1.0")
     (task,) = tiny_study.tasks(True)[:1]

@@ -6,7 +6,7 @@ import pytest
 
 from forcespace.cli import main
 from forcespace_studies import fig1
-from forcespace.sweep import Task, run_tasks
+from forcespace_studies.runner import Task, run_tasks
 
 KEYS = ("mu", "mu_sample", "seed", "z", "dim_S", "degree_of_indeterminacy",
         "dof_excess_full", "eta_hit_and_run", "eta_relax")

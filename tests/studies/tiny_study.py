@@ -10,7 +10,7 @@ import os
 import time
 from pathlib import Path
 
-from forcespace.sweep import Task
+from forcespace_studies.runner import Task
 
 FULL = dict(thetas=(0.3, 0.5, 0.7, 0.4, 0.6, 0.2), samples=12)
 QUICK = dict(thetas=(0.3, 0.5), samples=6)

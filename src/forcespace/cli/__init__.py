@@ -1,7 +1,7 @@
 """The ``forcespace`` command line.
 
-Built-in sub-commands live in ``forcespace.cli_*`` modules, each with a
-``register(subparsers)`` function; plug-ins (the DEM adapters) add theirs
+Built-in sub-commands live in the modules of ``BUILTIN`` (``forcespace.cli.packing``,
+...), each with a ``register(subparsers)`` function; plug-ins (the DEM adapters) add theirs
 through the ``forcespace.commands`` entry-point group, so forcespace never
 imports them. Every command returns an exit code, one line on stderr and no traceback:
 
@@ -12,10 +12,13 @@ imports them. Every command returns an exit code, one line on stderr and no trac
 * 3 (``EXIT_NOT_CONVERGED``): a numerical method did not converge or produced a
   non-finite value (:class:`~forcespace.errors.NumericalError`): the line says
   what was reached and why it stopped;
-* 4 (``EXIT_CLUSTER``): the workers of a study are unusable
-  (:class:`~forcespace.errors.ClusterError`: a Dask scheduler that cannot be reached or
-  is not one, every worker gone, a local worker process that died); rerun to resume;
+* 4 (``EXIT_CLUSTER``): the workers of a study are unusable (the studies' plug-in's
+  ``ClusterError``: a Dask scheduler that cannot be reached or is not one, every
+  worker gone, a local worker process that died); rerun to resume;
 * 130: interrupted (Ctrl-C).
+
+A plug-in's error reaches the user the same way: a ForcespaceError subclass whose
+``exit_code`` and ``kind`` say how.
 """
 from __future__ import annotations
 
@@ -26,12 +29,12 @@ import sys
 from importlib.metadata import entry_points
 
 from .. import __version__
-from ..errors import ClusterError, ForcespaceError, NumericalError
-from ..io.jsonfile import dumps
+from ..errors import ForcespaceError, NumericalError
+from .printing import print_json, print_result  # noqa: F401 (the commands' printing)
 
-EXIT_INPUT = 2
-EXIT_NOT_CONVERGED = 3
-EXIT_CLUSTER = 4
+EXIT_INPUT = ForcespaceError.exit_code              # 2
+EXIT_NOT_CONVERGED = NumericalError.exit_code       # 3
+EXIT_CLUSTER = 4                                    # the studies' ClusterError
 
 BUILTIN = ("forcespace.cli.packing", "forcespace.cli.space", "forcespace.cli.scene", "forcespace.cli.viewers")
 
@@ -59,35 +62,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def print_json(obj) -> None:
-    """Print ``obj`` as strict JSON (numpy converted; NaN/inf printed as null)."""
-    print(dumps(obj, indent=2))
-
-
-def print_result(obj: dict, as_json: bool) -> None:
-    """Print a command's result: JSON, or one aligned ``key: value`` line per entry."""
-    if as_json:
-        print_json(obj)
-        return
-    width = max((len(k) for k in obj), default=0)
-    for k, v in obj.items():
-        print(f"{k:>{width}}: {v}")
-
-
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except NumericalError as exc:
-        print(f"forcespace {args.command}: not converged: {exc}", file=sys.stderr)
-        return EXIT_NOT_CONVERGED
-    except ClusterError as exc:
-        print(f"forcespace {args.command}: cluster: {exc}", file=sys.stderr)
-        return EXIT_CLUSTER
-    except ForcespaceError as exc:
-        print(f"forcespace {args.command}: error: {exc}", file=sys.stderr)
-        return EXIT_INPUT
+    except ForcespaceError as exc:      # InputError 2, NumericalError 3, ClusterError 4
+        print(f"forcespace {args.command}: {exc.kind}: {exc}", file=sys.stderr)
+        return exc.exit_code
     except BrokenPipeError:
         # the reader (e.g. `| head`) went away: stop quietly, as Unix tools do
         devnull = os.open(os.devnull, os.O_WRONLY)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..cli import print_result
+from .printing import print_result
 from ..errors import InputError
 
 
@@ -95,7 +95,6 @@ def cmd_draw(args) -> int:
         draw_packing(read_packing(args.packing), args.output)
         print(f"wrote {args.output}")
         return 0
-    from ..cli import print_result
     from .space import load_problem
     from ..space.structure import decompose, extreme_pair
     from ..plot import plot_difference, save_figure

@@ -6,7 +6,7 @@
 """
 from __future__ import annotations
 
-from ..cli import print_json
+from .printing import print_json
 from ..errors import InputError
 
 

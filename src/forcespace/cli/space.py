@@ -39,7 +39,7 @@ def check_seed(seed, option: str = "--seed") -> int:
 
 def load_problem(path, slice_height=None, full=False, gap_tol=float("inf"), mu=None):
     """Read a packing file and build the problem the options ask for
-    (:func:`forcespace.statics.problem_for`)."""
+    (:func:`forcespace.model.problem.problem_for`)."""
     from ..io.packing_file import read_packing
     from ..model.problem import problem_for
 
@@ -76,7 +76,7 @@ def analysed(problem, ranges: bool = False, progress: bool = False):
 
 
 def cmd_analyze(args) -> int:
-    from ..cli import print_result
+    from .printing import print_result
 
     t0 = time.perf_counter()
     packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
@@ -101,7 +101,7 @@ def cmd_analyze(args) -> int:
 
 
 def cmd_sample(args) -> int:
-    from ..cli import print_json
+    from .printing import print_json
     from ..errors import NumericalError
     from ..io.outputs import check_output_file
 
@@ -140,7 +140,7 @@ def cmd_sample(args) -> int:
 
 
 def cmd_ensemble(args) -> int:
-    from ..cli import print_result
+    from .printing import print_result
 
     from ..io.ensemble_file import read_ensemble
     out = read_ensemble(args.ensemble).summary()
@@ -149,7 +149,7 @@ def cmd_ensemble(args) -> int:
 
 
 def cmd_section(args) -> int:
-    from ..cli import print_result
+    from .printing import print_result
     from ..io.outputs import check_figure_file
     from ..space.section import Section
 
@@ -171,7 +171,7 @@ def cmd_section(args) -> int:
 def cmd_select(args) -> int:
     import math
 
-    from ..cli import print_result
+    from .printing import print_result
     from ..errors import InputError
     from ..io.outputs import check_output_file, output_lock
     from ..io.packing_file import read_packing, write_packing

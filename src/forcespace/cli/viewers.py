@@ -8,7 +8,7 @@ library itself, so they must work without the adapters installed.
 """
 from __future__ import annotations
 
-from ..cli import print_result
+from .printing import print_result
 from ..errors import InputError
 
 

@@ -6,7 +6,7 @@ of simulation. Writers hold :func:`output_lock` (a non-blocking lock, :func:`fil
 on a hidden ``.NAME.lock`` beside the target): a second process writing the same
 file is refused with a clear error instead of interleaving. Under the lock,
 temporary files of earlier runs that were killed (``.NAME.*.tmp``, the pattern
-of :func:`forcespace.h5io.atomic_path`) are removed. Run directories that
+of :func:`forcespace.io.h5.atomic_path`) are removed. Run directories that
 forcespace creates carry a marker file; a directory without it is never
 replaced or deleted.
 

@@ -1,4 +1,4 @@
-"""The packing file: a :class:`~forcespace.packing.Packing` in self-describing HDF5.
+"""The packing file: a :class:`~forcespace.model.packing.Packing` in self-describing HDF5.
 
 Layout::
 

@@ -28,7 +28,7 @@ counted as ``n_projected_l1``. Every such sample is
 counted (``n_projected`` in the checkpoint attributes and the summary) and
 listed (``checkpoint/projected``: indices of the projected samples). Finished samples are written before any error propagates.
 
-For the plate problem (:func:`forcespace.statics.plate_problem`) the top
+For the plate problem (:func:`forcespace.model.problem.plate_problem`) the top
 plate is a body of the relaxation that moves vertically only, loaded by
 the plate force: the solver balances the same plate row as the LPs.
 The walk is not proven to sample S uniformly.

@@ -47,7 +47,7 @@ Method (no dependency beyond scipy): with D = diag(sqrt(kn_j), sqrt(kt_j))
 and z = D^-1 x the energy is |z|^2 / 2 and S maps to a polytope of the same
 form (columns of A scaled by D, friction mu_j sqrt(kn_j / kt_j)); the
 selected network is the Euclidean projection of 0 onto it, computed by
-:func:`forcespace.polytope.distance_to_S`'s verified method (null-space
+:func:`forcespace.space.projection.distance_to_S`'s verified method (null-space
 least-distance programming, then an exact active-set polish whose KKT
 conditions are checked). The problem is solved at <Fn> = 1 and scaled back.
 Measured against Clarabel (interior point) on the 200-disk paper slice:

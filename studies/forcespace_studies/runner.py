@@ -1,4 +1,5 @@
-"""Study sweeps: sets of independent tasks run on a local process pool or a Dask cluster.
+"""The studies' task runner: sets of independent tasks run on a local process pool or a
+Dask cluster.
 
 A task is one call ``function(**params, workdir=DIR)`` that returns a JSON-able
 dict; its result is written atomically to ``OUT/tasks/NAME.json`` (with the task's
@@ -39,15 +40,23 @@ from dataclasses import dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
 
-from .errors import ClusterError, ForcespaceError, InputError, require_int
-from .io.jsonfile import jsonable, write_json
-from .io.outputs import clean_stale_temps, file_lock, probe_writable
+from forcespace.errors import ForcespaceError, InputError, require_int
+from forcespace.extend import clean_stale_temps, file_lock, jsonable, probe_writable, write_json
 
 
 BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 STUDY_LOCK = ".forcespace-study.lock"
 CONNECT_TIMEOUT = 10.0     # [s] to reach a Dask scheduler
 WORKER_TIMEOUT = 60.0      # [s] a Dask cluster may go without any worker before the study stops
+
+
+class ClusterError(ForcespaceError):
+    """The workers a study runs on are unusable: a Dask scheduler that cannot be reached or
+    is not one, no worker left within the study's timeout, a local worker process that
+    died. The tasks done so far are kept; rerunning resumes (CLI exit 4)."""
+
+    exit_code = 4
+    kind = "cluster"
 
 
 @dataclass(frozen=True)
@@ -104,8 +113,8 @@ def one_blas_thread():
 
 def _provenance(task: Task) -> dict:
     """Code version and scene of a task (what made its numbers)."""
-    from . import __version__
-    from .io.h5 import code_version
+    from forcespace import __version__
+    from forcespace.extend import code_version
 
     out = {"code_version": code_version(), "forcespace_version": __version__,
            "function": task.function, "function_source": _package_hash(task.function)}
@@ -113,7 +122,7 @@ def _provenance(task: Task) -> dict:
     if isinstance(scene, str):
         import hashlib
 
-        from .model.scene import load_scene
+        from forcespace import load_scene
         try:
             s = load_scene(scene)
             out["scene"] = {"name": scene, "source": s.source,
