@@ -270,8 +270,9 @@ def _verdicts(results: list[dict], stats_mu: dict, min_pushes: int):
                 for e, v in diffs.items()), ours, kind="ours",
             rule=f"both 95 % bootstrap intervals of (fraction deeper than {DEEP:g} R at "
                  f"mu = {ends[0]:g}, resp. {ends[1]:g}) minus (at mu = 0.1) above 0; not "
-                 f"supported if either lies below 0. Censoring-proof: a region cut off by the floor "
-                 f"(>= {MIN_THICKNESS:g} R down) is deeper than {DEEP:g} R either way"))
+                 f"supported if either lies below 0. Censoring-proof: a region cut off by "
+                 f"the floor (>= {MIN_THICKNESS:g} R down) is deeper than {DEEP:g} R either "
+                 f"way"))
     return numbers, verdicts
 
 

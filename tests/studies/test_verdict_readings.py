@@ -268,3 +268,17 @@ def test_size_levels_off_only_where_the_largest_sizes_agree_with_saturation():
     # unbounded growth favoured and agreeing at the largest sizes: supported
     _, verdicts = size.judge(_size_rows(lambda n: 1e-3 * n ** 0.5))
     assert [v for v in verdicts if "without bound" in v.claim][0].verdict == "supported"
+
+
+def test_a_summary_under_the_second_rules_is_marked_until_summarised_again(tmp_path):
+    """Verdicts written under rules version 2 (before issue 45) are shown as written and
+    marked; the sentence about the first rules (no rule 1 or 4) is not said of them."""
+    from forcespace_studies.report import RULES_VERSION, write_report, write_section
+    assert RULES_VERSION == 3
+    (tmp_path / "fig1").mkdir()
+    write_section(tmp_path / "fig1", "fig1", "Title", "text",
+                  [Verdict("fig1", "claim", "42", "refuted", kind="paper")], {}, [],
+                  rules_version=2)
+    report = write_report([tmp_path / "fig1"], tmp_path / "REPORT.md").read_text()
+    assert "**refuted (earlier rules)**" in report and "--report-only" in report
+    assert "rule 1 (one verdict per sampler)" not in report
