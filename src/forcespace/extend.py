@@ -49,8 +49,8 @@ _SURFACE = {
     "N_WALL_SLOTS": ("model.walls", "N_WALL_SLOTS"), "SLOT_TOP": ("model.walls", "SLOT_TOP"),
     "kernel_body_index": ("model.walls", "kernel_body_index"),
     # space
-    "implicit_equalities": ("space.force_space", "implicit_equalities"),
-    "chebyshev_centre": ("space.force_space", "chebyshev_centre"),
+    "implicit_equalities": ("space.questions", "implicit_equalities"),
+    "chebyshev_centre": ("space.questions", "chebyshev_centre"),
     "ClusterDecomposition": ("space.structure", "ClusterDecomposition"),
     "decompose": ("space.structure", "decompose"), "domains": ("space.structure", "domains"),
     "extreme_pair": ("space.structure", "extreme_pair"),

@@ -19,7 +19,7 @@ def register(sub) -> None:
     from .runner import CONNECT_TIMEOUT, WORKER_TIMEOUT
 
     from . import STUDIES
-    p = sub.add_parser("study", help="run a study sweep (resumable; local pool or Dask), or "
+    p = sub.add_parser("study", help="run a study (resumable; local pool or Dask), or "
                        "combine study directories into one report",
                        description="`forcespace study NAME` runs a study into its directory "
                        "(tasks, tables, figures, verdicts.json and REPORT.md, all inside it); "

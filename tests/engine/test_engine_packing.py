@@ -335,9 +335,9 @@ def test_a_static_solve_that_stalls_restarts_from_an_exact_point_of_S(monkeypatc
     # recorded) and the result is an exact static packing
     from forcespace.engine import protocol
     from forcespace.model.problem import plate_problem
-    from forcespace.space import force_space
+    from forcespace.space import questions
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14, "physics.mu": 1.0})
-    real, lp = protocol.static_solve, force_space.check_feasible
+    real, lp = protocol.static_solve, questions.check_feasible
     points = []
 
     def feasible(problem):
@@ -345,7 +345,7 @@ def test_a_static_solve_that_stalls_restarts_from_an_exact_point_of_S(monkeypatc
         return points[-1]
 
     monkeypatch.setattr(protocol, "static_solve", reports_a_stall(real))
-    monkeypatch.setattr(force_space, "check_feasible", feasible)
+    monkeypatch.setattr(questions, "check_feasible", feasible)
     p = build_packing(scene, show_progress=False)
     assert len(points) == 1 and points[0][0]        # one LP, and S is not empty
     assert p.meta["static_retries"] == config.STATIC_RETRIES
@@ -359,12 +359,12 @@ def test_a_static_solve_that_stalls_restarts_from_an_exact_point_of_S(monkeypatc
 def test_a_configuration_without_a_static_network_is_refused_after_the_restart(monkeypatch):
     from forcespace.engine import protocol
     from forcespace.errors import NumericalError
-    from forcespace.space import force_space
+    from forcespace.space import questions
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
     real = protocol.static_solve
 
     monkeypatch.setattr(protocol, "static_solve", reports_a_stall(real))
-    monkeypatch.setattr(force_space, "check_feasible", lambda problem: (False, None, None))
+    monkeypatch.setattr(questions, "check_feasible", lambda problem: (False, None, None))
     with pytest.raises(NumericalError, match="the exact LP finds no static network"):
         build_packing(scene, show_progress=False)
 

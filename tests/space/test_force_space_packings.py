@@ -118,14 +118,14 @@ def test_varying_contacts_by_few_lps_match_the_full_range_table(name, height, mo
     # widths returned are exact where the contact's own LPs ran, lower bounds above the
     # tolerance elsewhere
     from forcespace.io.packing_file import read_packing
-    from forcespace.space import force_space as F
+    from forcespace.space import questions as Q
     from forcespace.space.lp import unit_problem
     from paths import DATA
     prob = slice_problem(read_packing(DATA / name), height)
     full = ForceSpace(ranges=True).compute(prob)
     calls = []
-    real = F.solve_lp
-    monkeypatch.setattr(F, "solve_lp", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = Q.solve_lp
+    monkeypatch.setattr(Q, "solve_lp", lambda *a, **k: calls.append(1) or real(*a, **k))
     fast = ForceSpace().compute(prob)
     assert fast.success and full.success
     np.testing.assert_array_equal(fast.varying, full.varying)
@@ -137,7 +137,7 @@ def test_varying_contacts_by_few_lps_match_the_full_range_table(name, height, mo
     for points, hull in (((full.centre / s,), None),
                          ((full.affine_point / s, full.centre / s), full.affine_basis)):
         calls.clear()
-        w = F._lp_widths(P, every, config.VARY_TOL, points=points, hull=hull)
+        w = Q.lp_widths(P, every, config.VARY_TOL, points=points, hull=hull)
         assert len(calls) < 4 * P.n_contacts              # fewer than the full table
         ran = w <= config.VARY_TOL
         # a trusted point misses S by <= TRUSTED_POINT * VARY_TOL and moved constant

@@ -186,7 +186,7 @@ def test_projection_on_a_slice_with_near_dependent_equilibrium_rows():
     coordinates: it is admissible, and no admissible network sampled from S (dim 2) nor
     the Chebyshev centre is closer."""
     import forcespace as fs
-    from forcespace.space.force_space import chebyshev_centre
+    from forcespace.space.questions import chebyshev_centre
     from forcespace.space.projection import distance_to_S
 
     p = fs.read_packing(DATA / "paper_fast_n100_mu1_seed2.h5")

@@ -9,7 +9,8 @@ from ensemble_cases import lattice_rows, pyramid
 from forcespace.space.structure import domains
 from forcespace.cli import main
 from forcespace.io.packing_file import read_packing
-from forcespace.space.force_space import ForceSpace, check_bounded, check_feasible
+from forcespace.space.force_space import ForceSpace
+from forcespace.space.questions import check_bounded, check_feasible
 from forcespace.space.projection import distance_to_S
 from forcespace.model.problem import build_problem, full_problem, slice_problem
 

@@ -279,9 +279,7 @@ def window_displacement(setup: Setup, bodies: Bodies, start, contacts: ContactFo
     walls, the uniform horizontal drift (a zero mode); and a disk whose one
     force-bearing contact is a wall (a lone disk on the floor), which rolls or slides
     along the flat wall at constant speed without end, touching nothing of the
-    packing (rigid disks have no rolling resistance; measured in the layer scene:
-    a disk alone on the floor rolling at 1.5e-5 R/T for 4e5 steps while every other
-    disk was still to 1e-9).
+    packing (rigid disks have no rolling resistance; the case: studies/field_notes.md).
     """
     n = bodies.n
     nb = n + N_WALL_SLOTS

@@ -7,20 +7,18 @@
    (:func:`forcespace.engine.compress.compress`).
 3. Static solve on the frozen configuration (:func:`forcespace.engine.static.static_solve`).
 4. A static solve that ends above ``jamming.static_tolerance`` means the configuration
-   only looked at rest (a slow creep that paused for a window; at mu = 1, n = 800 such
-   a configuration admitted no static network at all): the compression goes on, the rest
-   criterion suspended for ``config.UNSETTLE_WINDOWS`` windows, and the static solve is
-   tried again, up to ``config.STATIC_RETRIES`` times (counted in
-   ``meta["static_retries"]``; a run resumed from its checkpoint keeps its count, and ``meta["compress_seconds"]`` and
-   ``meta["wall_seconds"]`` include the time the run took in the processes before). A
-   packing whose first static solve succeeds is unchanged by this.
-   If the last one fails too, the exact LP of S decides
+   only looked at rest (a slow creep that paused for a window): the compression goes on,
+   the rest criterion suspended for ``config.UNSETTLE_WINDOWS`` windows, and the static
+   solve is tried again, up to ``config.STATIC_RETRIES`` times (counted in
+   ``meta["static_retries"]``; a run resumed from its checkpoint keeps its count, and
+   ``meta["compress_seconds"]`` and ``meta["wall_seconds"]`` include the time the run
+   took in the processes before). A packing whose first static solve succeeds is
+   unchanged by this. If the last one fails too, the exact LP of S decides
    (:func:`~forcespace.engine.static.restart_from_exact_point`): a static network
    exists and NLGS restarts from it (``meta["static_restart"] = "exact point"``), or S
-   is empty ("S empty"; the packing is refused below). NLGS from the dynamics' forces
-   can stall on a configuration that is static (mu = 1, n = 800, seed 3 of paper_fast
-   with solver.tolerance 1e-8: residual 1e-6 after 2e6 sweeps, four times). Packings
-   that jammed before this step existed are unchanged.
+   is empty ("S empty"; the packing is refused below): NLGS from the dynamics' forces
+   can stall on a configuration that is static. The cases behind both steps:
+   studies/field_notes.md.
 5. The packing is refused (NumericalError) if it keeps an overlap above
    ``jamming.max_overlap`` or its static residual above ``jamming.static_tolerance``.
 

@@ -118,17 +118,15 @@ def restart_from_exact_point(setup: Setup, bodies: Bodies, packing: Packing, see
     NLGS from the dynamics' forces stalled above ``jamming.static_tolerance``.
 
     The feasibility LP of the frozen configuration (HiGHS through
-    :func:`forcespace.space.force_space.check_feasible`; the top plate's contacts are
+    :func:`forcespace.space.questions.check_feasible`; the top plate's contacts are
     unknowns under its load when ``plates.top = "load"``, else fixed loads) decides
     whether any static network exists. If one does, NLGS restarts from it (and polishes
-    it to the tolerance), else None: the configuration is not static. Seen at mu = 1,
-    n = 800: NLGS from the dynamics' forces stalled at 1e-6 after 2e6 sweeps; the LP
-    point (1017 contacts, 0.08 CPU s) violates equilibrium by 1.7e-13 and NLGS from it
-    ends at 6.5e-14 after 100 sweeps. Returns (packing, statistics) as
+    it to the tolerance), else None: the configuration is not static (the case that
+    asked for it: studies/field_notes.md). Returns (packing, statistics) as
     :func:`static_solve`, or None.
     """
     from ..model.problem import full_problem, plate_problem
-    from ..space.force_space import check_feasible
+    from ..space.questions import check_feasible
 
     build = plate_problem if setup.boundary.top is not None else full_problem
     problem = build(packing, gap_tol=setup.jamming.contact_gap_tol)

@@ -48,6 +48,12 @@ from ..linalg import project_on_range
 from .packing import Packing, check_packing, contact_sums
 from .walls import BOTTOM, LEFT, RIGHT, TOP, contact_mu_array
 
+# the kinds of the inequality rows of S (StaticsProblem.inequalities): Coulomb's two sides
+# of a frictional contact, and no tension at a frictionless one
+SLIDES_PLUS = 0     # ft - mu fn <= 0: tight when the contact slides in +t
+SLIDES_MINUS = 1    # -ft - mu fn <= 0: tight when it slides in -t
+NO_TENSION = 2      # -fn <= 0 (mu = 0): tight when the contact carries nothing
+
 
 @dataclass
 class StaticsProblem:
@@ -198,9 +204,10 @@ class StaticsProblem:
     def inequalities(self):
         """Inequalities ``G @ x <= 0``: G (p, 2m) CSR and their owners.
 
-        Returns (G, contact (p,), kind (p,)) with kind 0: ``ft - mu fn <= 0``,
-        1: ``-ft - mu fn <= 0`` (mu > 0), 2: ``-fn <= 0`` (mu = 0). Built once
-        per problem (mu and the contacts do not change).
+        Returns (G, contact (p,), kind (p,)) with kind ``SLIDES_PLUS``:
+        ``ft - mu fn <= 0``, ``SLIDES_MINUS``: ``-ft - mu fn <= 0`` (mu > 0),
+        ``NO_TENSION``: ``-fn <= 0`` (mu = 0). Built once per problem (mu and the
+        contacts do not change).
         """
         if self._inequalities is None:
             self._inequalities = self._build_inequalities()
@@ -211,7 +218,7 @@ class StaticsProblem:
         p = 0
         for j, mj in enumerate(self.mu):
             if mj > 0.0:
-                for s, k in ((1.0, 0), (-1.0, 1)):
+                for s, k in ((1.0, SLIDES_PLUS), (-1.0, SLIDES_MINUS)):
                     rows += [p, p]
                     cols += [2 * j, 2 * j + 1]
                     vals += [-mj, s]
@@ -223,7 +230,7 @@ class StaticsProblem:
                 cols.append(2 * j)
                 vals.append(-1.0)
                 owner.append(j)
-                kind.append(2)
+                kind.append(NO_TENSION)
                 p += 1
         G = sp.csr_matrix((vals, (rows, cols)), shape=(p, self.n_columns))
         return G, np.array(owner, dtype=np.int64), np.array(kind, dtype=np.int64)
@@ -406,7 +413,8 @@ def problem_for(packing: Packing, slice_height: float | None = None, full: bool 
     packing with ``full``, else the slice height of the packing's scene, else the
     whole packing. ``mu``: disk-disk friction instead of the packing's own."""
     if full and slice_height is not None:
-        raise InputError("command line", "--slice/--full", "give one of them, not both")
+        raise InputError(source or "problem_for", "slice_height, full",
+                         "give one of them, not both (a slice or the whole packing)")
     if not full and slice_height is None:
         slice_height = packing.scene_slice_height
     if full or slice_height is None:

@@ -385,7 +385,7 @@ class Scene:
         msg = SCHEMA["disks.n"].check(n, self.values) if _type_ok(n, int) else \
             "must be an integer"
         if msg:
-            raise InputError(f"{self.source} (--n with --scale-box)", "disks.n", msg, got=n)
+            raise InputError(f"{self.source} (scaled to n disks)", "disks.n", msg, got=n)
         n0 = self["disks.n"]
         f = math.sqrt(n / n0)
         keys = ["box.width", "analysis.slice_height"]

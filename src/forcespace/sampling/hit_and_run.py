@@ -2,8 +2,9 @@
 
 Coordinates: x = x_c + T w, with x_c the centre of the MVE of S, T = N L where
 N (2m, d) is an orthonormal basis of the affine hull of S (d = dim S, from
-polytope.analyze) and L (d, d) a fixed rounding matrix. The non-implicit
-inequalities become ``H w <= s0`` with H = G T, s0 = -G x_c (>= 0).
+:class:`~forcespace.space.force_space.ForceSpace`) and L (d, d) a fixed rounding
+matrix. The non-implicit inequalities become ``H w <= s0`` with H = G T, s0 = -G x_c
+(>= 0).
 
 A step draws a direction u (isotropic Gaussian normalised, "hypersphere"; or
 a random coordinate axis, "coordinate"), intersects the line w + t u with the

@@ -44,7 +44,7 @@ from .. import config
 from ..engine.frozen import frozen_contacts, relax
 from ..errors import InputError, NumericalError, require_int
 from ..model.problem import StaticsProblem
-from ..space.force_space import check_bounded, check_feasible
+from ..space.questions import check_bounded, check_feasible
 from ..space.projection import Projector, l1_nearest
 from ..streams import chain_generators, restored_generator
 from .driver import Sampler, Stop, check_target, run_walk

@@ -62,9 +62,9 @@ import scipy.sparse as sp
 
 from .. import config
 from ..errors import InputError, NumericalError
-from ..model.problem import StaticsProblem
+from ..model.problem import NO_TENSION, StaticsProblem
 from ..result import Computed
-from .force_space import check_feasible
+from .questions import check_feasible
 from .lp import unit_problem
 from .projection import project
 
@@ -275,7 +275,7 @@ def _multipliers(problem: StaticsProblem, x, kn, kt, c) -> dict:
     fn = x[0::2]
     act = np.flatnonzero(gx > -config.SLIDE_TOL * s)
     open_ = np.flatnonzero(fn <= config.SLIDE_TOL * s)
-    sliding = np.setdiff1d(np.unique(owner[act[kind[act] < 2]]), open_)
+    sliding = np.setdiff1d(np.unique(owner[act[kind[act] != NO_TENSION]]), open_)
     # stationarity W x = A^T lam - G_act^T nu (+ fixed columns): least squares
     w = np.empty_like(x)
     w[0::2] = fn / kn
