@@ -8,6 +8,7 @@ from forcespace import config
 from forcespace.errors import InputError
 from forcespace.io.ensemble_file import read_ensemble
 from forcespace.sampling import hit_and_run as har
+from forcespace.sampling.frame import frame
 from forcespace.sampling.hit_and_run import HitAndRun
 from forcespace.sampling.relax_walk import RelaxWalk
 from forcespace.space.force_space import ForceSpace
@@ -131,7 +132,7 @@ def test_rows_constant_on_the_affine_hull_are_dropped_from_the_frame(monkeypatch
     """A row orthogonal to S's affine hull with a slack of -1e-13 <Fn> (an implicit
     equality the LP test missed, as on an 800-disk mu = 1 slice) must leave the
     hit-and-run frame: kept, its slack stops the rounding, and the frame has to widen S
-    by round-off (sampling.hit_and_run._widening) to start."""
+    by round-off (sampling.frame._widening) to start."""
     import scipy.sparse as sp
 
     _, prob = grooves(THETAS, MU)
@@ -144,13 +145,13 @@ def test_rows_constant_on_the_affine_hull_are_dropped_from_the_frame(monkeypatch
     row = sp.csr_matrix(g + shift * an.affine_point / np.linalg.norm(an.affine_point))
     G2 = sp.vstack([G, row]).tocsr()
     monkeypatch.setattr(prob, "_inequalities", (G2, np.append(owner, 0), np.append(kind, 0)))
-    f = har.frame(prob, an)
+    f = frame(prob, an)
     assert G.shape[0] not in f.free and np.abs(G2[-1] @ f.N).max() <= config.FLAT_ROW
     assert f.widening == 0
     y0, L, _ = har.rounding(f.H0, f.s0, prob.force_scale)
     assert np.all(f.H0 @ (prob.force_scale * y0) <= f.s0)    # a strictly interior start
     monkeypatch.setattr(config, "FLAT_ROW", -1.0)     # keep the row: the frame must widen S
-    f = har.frame(prob, an)
+    f = frame(prob, an)
     assert G.shape[0] in f.free and f.widening >= config.FRAME_MARGIN
     raw = f.s0 - f.widening * prob.force_scale
     assert raw[-1] < 0

@@ -241,9 +241,10 @@ def test_an_mve_round_whose_centre_drifts_onto_a_facet_is_redone_by_john():
     facet (slack -3e-19), and hit-and-run's next round refused that start. The round is
     rejected, the rounding is John's, and the walk starts strictly inside."""
     from forcespace.sampling import hit_and_run as har
+    from forcespace.sampling.frame import frame as frame_of
     prob = slice_problem(fs.read_packing(DATA / "paper_fast_n400_mu0.01_s3.h5"),
                          39.59797974644666)
-    f = har.frame(prob)
+    f = frame_of(prob)
     assert f.H0.shape == (916, 189) and har.rounding_method(916) == "mve"
     y0, L, info = har.rounding(f.H0, f.s0, prob.force_scale)
     assert info["fallback_from"]["rejected_round"] == 1 and info["method"] == "john"
@@ -257,7 +258,7 @@ def test_a_centre_a_round_off_outside_a_facet_is_recentred_in_the_frame():
     centre handed to the frame is a vertex of the two-groove rectangle pushed 1e-10 <Fn>
     outside: the frame recentres in its own coordinates, at the rectangle's centre line
     (slack half the shorter side on the two nearest facets), and the walk starts."""
-    from forcespace.sampling.hit_and_run import frame
+    from forcespace.sampling.frame import frame
     prob, an, fake = _rectangle_centred_outside()
     f = frame(prob, fake)
     assert f.s0.min() > 0 and prob.violation(f.xc) <= 1e-12 and f.widening == 0
@@ -290,11 +291,11 @@ def test_a_frame_whose_centre_misses_a_thin_S_is_widened_by_the_miss(monkeypatch
     widened frame, every sample lies within the widening of S, and both samplers give
     the eta of the run without the miss."""
     from forcespace import config
-    from forcespace.sampling import hit_and_run
+    from forcespace.sampling import frame as frame_module
     prob, _, an = _rectangle_centred_outside()
     exact = fs.HitAndRun(4000, seed=1, target_ess=200).compute(prob).ensemble.eta
-    monkeypatch.setattr(hit_and_run, "inner_ball", _missing_centre(2e-8))
-    f = hit_and_run.frame(prob, an)
+    monkeypatch.setattr(frame_module, "inner_ball", _missing_centre(2e-8))
+    f = frame_module.frame(prob, an)
     assert f.widening == pytest.approx(2e-8 + config.FRAME_MARGIN, rel=1e-6)
     assert f.s0.min() == pytest.approx(config.FRAME_MARGIN * prob.force_scale, rel=1e-6)
     assert prob.violation(f.xc) == pytest.approx(2e-8, rel=1e-3)
@@ -315,10 +316,10 @@ def test_a_frame_whose_centre_lp_has_no_optimum_starts_from_the_analysis_centre(
     The frame now keeps the analysis' centre (here 1.1e-10 <Fn> outside a facet, 2e-11 in
     the hull) and widens by its miss: the start has exactly FRAME_MARGIN of slack."""
     from forcespace import config
-    from forcespace.sampling import hit_and_run
+    from forcespace.sampling import frame as frame_module
     prob, _, an = _rectangle_centred_outside()
-    monkeypatch.setattr(hit_and_run, "inner_ball", lambda H, s, r_max: None)
-    f = hit_and_run.frame(prob, an)
+    monkeypatch.setattr(frame_module, "inner_ball", lambda H, s, r_max: None)
+    f = frame_module.frame(prob, an)
     miss = prob.violation(an.centre)
     assert 1e-10 < miss < 2e-10
     # the frame's miss is the centre's, projected onto the hull: no larger, not zero
@@ -330,9 +331,9 @@ def test_a_frame_whose_centre_lp_has_no_optimum_starts_from_the_analysis_centre(
 def test_a_frame_missing_S_by_more_than_round_off_is_refused(monkeypatch):
     """A miss beyond FRAME_MAX_WIDENING is not round-off: the frame refuses, naming the
     row and the miss, before any sampling."""
-    from forcespace.sampling import hit_and_run
+    from forcespace.sampling import frame as frame_module
     prob, _, an = _rectangle_centred_outside()
-    monkeypatch.setattr(hit_and_run, "inner_ball", _missing_centre(1e-6))
+    monkeypatch.setattr(frame_module, "inner_ball", _missing_centre(1e-6))
     with pytest.raises(NumericalError, match=r"misses inequality row \d+ by 1e-06 <Fn>"):
         fs.BilliardWalk(100, seed=2).compute(prob, analysis=an)
 

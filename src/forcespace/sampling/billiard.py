@@ -49,7 +49,7 @@ incrementally and recomputed exactly every ~4 p reflections and after a rejectio
 costs 8 p^2 bytes (0.9 GB at the 5000-disk slice, p = 10676); above
 ``config.MAX_GRAM_BYTES`` the kernel computes H h_j per reflection instead (O(p d)).
 
-Frame and rounding: x = x_centre + T w with the frame of hit-and-run (hit_and_run.frame:
+Frame and rounding: x = x_centre + T w in the frame both uniform walks share (frame.frame:
 the affine hull of S, its non-implicit inequalities) and the cheap Lewis-weight rounding
 (rounding.lewis_rounding), which puts the unit ball inside the polytope at w = 0: the
 walk is exact in any frame, but in a thin one it needs many reflections per unit of
@@ -62,13 +62,12 @@ import time
 import numpy as np
 
 from .. import config
-from ..errors import InputError, NumericalError, require_int
+from ..errors import InputError, require_int
 from ..kernels import kernel
-from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
 from ..streams import chain_states, start_generator
-from .driver import FrameSampler, Stop, check_target, run_walk
-from .hit_and_run import frame, tolerance_description
+from .driver import FrameSampler
+from .frame import FrameWalk
 from .rounding import lewis_rounding_with_progress
 from .xoshiro import normals, uniform
 
@@ -349,141 +348,71 @@ SETUP_DESCRIPTION = {
     "rounding_weight_updates": ("1", "Lewis-weight updates the rounding made")}
 
 
-class _Walk:
-    """The billiard walk as a walk of :func:`forcespace.sampling.driver.run_walk`;
-    sample i is drawn by chain i % chains, ``thin`` trajectories after its last."""
+class BilliardFrameWalk(FrameWalk):
+    """The billiard walk in the rounded frame (:class:`~forcespace.sampling.frame.
+    FrameWalk`): ``thin`` trajectories of chain i % chains between its samples."""
 
     sampler = "billiard"
+    STATE = ("w", "rng", "slack", "counts")
 
-    def __init__(self, problem: StaticsProblem, options: dict, analysis, progress: bool):
-        t0, c0 = time.perf_counter(), time.process_time()
-        self.problem, self.progress = problem, progress
-        (self.xc, self.N, self.H0, self.s0, self.free, self.analysis,
-         self.widening) = frame(problem, analysis)
-        self.d = self.N.shape[1]
-        self.params = default_params(**options)
-        self.times = {"frame_s": time.perf_counter() - t0, "rounding_s": 0.0,
-                      "burn_in_s": 0.0}
-        self.cpu = {"frame_s": time.process_time() - c0, "rounding_s": 0.0, "gram_s": 0.0,
-                    "burn_in_s": 0.0, "sampling_s": 0.0}
-        self.tolerance_description = tolerance_description(self.widening)
-        self.kept = []          # w of every sample drawn (the frame floor, computed at the end)
-        self.walk = None
+    def default_params(self, options: dict) -> dict:
+        return default_params(**options)
 
-    def set_up(self):
-        """Rounding, Gram matrix, burn-in: (setup, describe, checkpoint, checkpoint_attrs)."""
-        p, d, scale = self.params, self.d, self.problem.force_scale
-        xc, s0, H0, N = self.xc, self.s0, self.H0, self.N
-        t1, c1 = time.perf_counter(), time.process_time()
-        rinfo = {}
-        if d:
-            y0, L, rinfo = lewis_rounding_with_progress(H0 * scale, s0, np.zeros(d),
-                                                        p["rounding_updates"], self.progress)
-            xc, s0 = xc + scale * (N @ y0), s0 - scale * (H0 @ y0)
-            T, H = scale * (N @ L), np.ascontiguousarray(scale * (H0 @ L))
-        else:
-            T, H = np.zeros((N.shape[0], 0)), np.zeros((H0.shape[0], 0))
-        self.times["rounding_s"] = time.perf_counter() - t1
-        self.cpu["rounding_s"] = time.process_time() - c1
+    def round(self):
+        scale = self.problem.force_scale
+        return lewis_rounding_with_progress(self.H0 * scale, self.frame.s0, np.zeros(self.d),
+                                            self.params["rounding_updates"], self.progress)
+
+    def start_chains(self, H, s):
+        """Dispersed starts, the Gram matrix and the burn-in (its counts kept apart)."""
+        p, d = self.params, self.d
         c1 = time.process_time()
+        H = np.ascontiguousarray(H)
         states = chain_states(p["seed"], p["chains"])
-        W = dispersed_starts(H, s0, p["chains"], p["seed"]) if d else np.zeros((p["chains"], 0))
-        walk = Chains(H, s0, W, states, None if d else np.zeros((0, 0)))
+        W = dispersed_starts(H, s, p["chains"], p["seed"]) if d else np.zeros((p["chains"], 0))
+        self.walk = Chains(H, s, W, states, None if d else np.zeros((0, 0)))
         self.cpu["gram_s"] = time.process_time() - c1
         t1, c1 = time.perf_counter(), time.process_time()
         if d:
-            walk.burn_in(p["burn_in"], p["tau_factor"], p["length"], progress=self.progress)
+            self.walk.burn_in(p["burn_in"], p["tau_factor"], p["length"],
+                              progress=self.progress)
         self.times["burn_in_s"] = time.perf_counter() - t1
         self.cpu["burn_in_s"] = time.process_time() - c1
-        self.burn_in_counts = walk.counts.sum(0).tolist()
-        walk.counts[:, :3] = 0
-        self._start_chains(xc, T, walk)
-        setup = {"x_centre": xc, "T": T, "H": H, "s0": s0, "free_rows": self.free,
-                 "tau": self.walk.tau, "max_refl": self.walk.max_refl,
-                 "rounding_john_excess": rinfo.get("john_excess", 0.0),
-                 "rounding_weight_updates": rinfo.get("weight_updates", 0)}
-        self.rounding_info = rinfo
-        arrays, attrs = self.state(0)
-        return setup, SETUP_DESCRIPTION, arrays, attrs
+        self.burn_in_counts = self.walk.counts.sum(0).tolist()
+        self.walk.counts[:, :3] = 0
+        return H, s
 
-    def resume(self, stored) -> None:
-        """Continue from an ensemble file's set-up and checkpoint (the Gram matrix is
-        recomputed: the same BLAS product of the same H)."""
-        p, st, ck = self.params, stored.setup, stored.checkpoint
-        try:
-            W = ck["w"].reshape(p["chains"], self.d).copy()
-            states = ck["rng"].astype(np.uint64).reshape(p["chains"], 4).copy()
-            walk = Chains(st["H"], st["s0"], W, states)
-            walk.slack = ck["slack"].reshape(walk.slack.shape).copy()
-            walk.counts = ck["counts"].astype(np.int64).reshape(p["chains"], 4).copy()
-        except (KeyError, ValueError) as exc:
-            raise InputError(stored.ensemble.path, "checkpoint", f"corrupt ({exc}); delete "
-                             "the file to restart") from None
-        if not (np.all(np.isfinite(W)) and np.all(np.isfinite(walk.slack))):
-            raise InputError(stored.ensemble.path, "checkpoint/w", "must be finite (the "
-                             "stored chain state was changed); delete the file to restart")
-        walk.tau, walk.max_refl = float(st["tau"]), int(st["max_refl"])
-        walk.mode = LENGTH_MODES[p["length"]]
-        self.burn_in_counts, self.rounding_info = [0, 0, 0, 0], {}
-        self._start_chains(st["x_centre"], st["T"], walk)
+    def setup_extra(self) -> dict:
+        info = self.rounding_info
+        return {"tau": self.walk.tau, "max_refl": self.walk.max_refl,
+                "rounding_john_excess": info.get("john_excess", 0.0),
+                "rounding_weight_updates": info.get("weight_updates", 0)}
 
-    def _start_chains(self, xc, T, walk) -> None:
-        self.xc, self.T, self.walk = xc, T, walk
-        w = walk
-        self.ok = (w.W.copy(), w.states.copy(), w.slack.copy(), w.counts.copy())
-        # the frame's equilibrium floor, as for hit-and-run (hit_and_run._Walk)
-        self.abs_AT = np.abs(self.problem.A @ T) / self.problem.force_scale if self.d \
-            else np.zeros((0, 0))
+    def resume_chains(self, setup, checkpoint, state) -> None:
+        """The chains of a checkpoint (the Gram matrix is recomputed: the same BLAS
+        product of the same H)."""
+        chains = self.params["chains"]
+        walk = Chains(setup["H"], setup["s0"], state["w"], state["rng"])
+        walk.slack = checkpoint["slack"].reshape(walk.slack.shape).copy()
+        walk.counts = checkpoint["counts"].astype(np.int64).reshape(chains, 4).copy()
+        state["slack"] = walk.slack
+        walk.tau, walk.max_refl = float(setup["tau"]), int(setup["max_refl"])
+        walk.mode = LENGTH_MODES[self.params["length"]]
+        self.walk, self.burn_in_counts, self.rounding_info = walk, [0, 0, 0, 0], {}
 
-    def floor(self, W) -> np.ndarray:
-        """Equilibrium floor |A T| |w| / <Fn> of the frame at the states W (k, d)."""
-        W = np.asarray(W, float).reshape(-1, self.d)
-        if not self.d or not len(W):
-            return np.zeros(len(W))
-        return (np.abs(W) @ self.abs_AT.T).max(1)
+    def chain_arrays(self) -> tuple:
+        w = self.walk
+        return w.W, w.states, w.slack, w.counts
 
-    def draw(self, i: int):
-        c0 = time.process_time()
-        c, w = i % self.params["chains"], self.walk
-        if self.d:
-            w.run(c, self.params["thin"])
-        x = self.xc + self.T @ w.W[c]
-        v = self.problem.violation(x)
-        if not v <= config.SAMPLE_VIOLATION:     # the floor is computed only when needed
-            allowed = config.SAMPLE_VIOLATION + float(self.floor(w.W[c])[0]) + self.widening
-            if not v <= allowed:
-                raise NumericalError(f"billiard sample {i} violates S by {v:.3e} x <Fn> "
-                                     f"(> {allowed:.3e})")
-        for saved, now in zip(self.ok, (w.W, w.states, w.slack, w.counts)):
-            saved[c] = now[c]
-        self.kept.append(w.W[c].copy())
-        self.cpu["sampling_s"] += time.process_time() - c0
-        return x, c, v
+    def advance(self, c: int) -> None:
+        self.walk.run(c, self.params["thin"])
 
     def postfix(self) -> dict:
         t = self.walk.counts.sum(0)
         return {"refl/traj": f"{t[REFL] / max(t[TRAJ], 1):.0f}", "discarded": int(t[DISCARDED])}
 
-    def state(self, n_total: int):
-        W, states, slack, counts = self.ok
-        return ({"w": W, "rng": states, "slack": slack, "counts": counts},
-                {"n_done": n_total, "trajectories_per_sample": self.params["thin"]})
-
-
-class _TimedStop(Stop):
-    """:class:`Stop` that also counts the CPU seconds of its convergence checks (the
-    run's diagnostics, kept apart from the sampling's)."""
-
-    def __init__(self, *args, **kw):
-        super().__init__(*args, **kw)
-        self.cpu_s = 0.0
-
-    def __call__(self, k, samples, t0):
-        c0 = time.process_time()
-        try:
-            return super().__call__(k, samples, t0)
-        finally:
-            self.cpu_s += time.process_time() - c0
+    def state_attrs(self) -> dict:
+        return {"trajectories_per_sample": self.params["thin"]}
 
 
 class BilliardWalk(FrameSampler):
@@ -506,6 +435,8 @@ class BilliardWalk(FrameSampler):
     ``frame_equality_floor``.
     """
 
+    Walk = BilliardFrameWalk
+
     def __init__(self, n: int = 100, seed: int = 0, chains: int | None = None,
                  thin: int | None = None, burn_in: int | None = None,
                  tau_factor: float | None = None, length: str | None = None,
@@ -514,40 +445,22 @@ class BilliardWalk(FrameSampler):
                  target_ess: float | None = None):
         check_options(n, chains, thin, burn_in, tau_factor, length, rounding_updates,
                       checkpoint_every)
-        check_target(target_ess)
-        self.n, self.seed, self.progress = n, seed, progress
-        self.max_seconds, self.checkpoint_every = max_seconds, checkpoint_every
-        self.target_ess = target_ess
-        self.options = dict(seed=seed, chains=chains, thin=thin, burn_in=burn_in,
-                            tau_factor=tau_factor, length=length,
-                            rounding_updates=rounding_updates)
+        super().__init__(n, seed, max_seconds, checkpoint_every, progress, target_ess,
+                         chains=chains, thin=thin, burn_in=burn_in, tau_factor=tau_factor,
+                         length=length, rounding_updates=rounding_updates)
 
-    def compute(self, problem: StaticsProblem, output=None, analysis=None) -> "BilliardWalk":
-        """Sample S of ``problem``; ``analysis``: its ForceSpace, if already computed."""
-        t0, c0 = time.perf_counter(), time.process_time()
-        walk = _Walk(problem, self.options, analysis, self.progress)
-        stop = _TimedStop(self.n, self.max_seconds, self.target_ess, walk.params["chains"],
-                          walk.params["seed"])
-        ens = run_walk(walk, problem, stop, output, self.checkpoint_every, self.progress,
-                       t_start=t0)
-        self._start()
-        wall = time.perf_counter() - t0
-        cpu = dict(walk.cpu, diagnostics_s=stop.cpu_s, total_s=time.process_time() - c0)
-        t = walk.walk.counts.sum(0)
-        self._results.update(
-            ensemble=ens, dim=walk.d, n_rows=int(walk.H0.shape[0]), params=walk.params,
-            times=dict(walk.times, wall_time_s=wall, sampling_s=wall - sum(walk.times.values())),
-            cpu=cpu, frame_equality_floor=float(walk.floor(walk.kept).max(initial=0.0)),
-            frame_widening=walk.widening,
-            counts={"trajectories": int(t[TRAJ]), "reflections": int(t[REFL]),
-                    "discarded": int(t[DISCARDED]),
-                    "burn_in_trajectories": int(walk.burn_in_counts[TRAJ]),
-                    "burn_in_reflections": int(walk.burn_in_counts[REFL])},
-            walk_info={"tau": float(walk.walk.tau), "max_refl": int(walk.walk.max_refl),
-                       "gram": bool(walk.walk.K.shape[0] == walk.walk.H.shape[0] > 0),
-                       "rounding": walk.rounding_info})
-        self._finish(ens.status, ens.message)
-        return self
+    def _walk_results(self, walk: BilliardFrameWalk) -> dict:
+        t, w = walk.walk.counts.sum(0), walk.walk
+        return {"counts": {"trajectories": int(t[TRAJ]), "reflections": int(t[REFL]),
+                           "discarded": int(t[DISCARDED]),
+                           "burn_in_trajectories": int(walk.burn_in_counts[TRAJ]),
+                           "burn_in_reflections": int(walk.burn_in_counts[REFL])},
+                "walk_info": {"tau": float(w.tau), "max_refl": int(w.max_refl),
+                              "gram": bool(w.K.shape[0] == w.H.shape[0] > 0),
+                              "rounding": walk.rounding_info}}
+
+    def _summary_extra(self) -> dict:
+        return {"counts": self.counts, "walk": self.walk_info}
 
     @property
     def counts(self) -> dict:
@@ -560,15 +473,3 @@ class BilliardWalk(FrameSampler):
         """tau and max_refl fixed by the burn-in, whether K = H H^T was kept, the
         rounding's info (empty when resumed)."""
         return self._get("walk_info")
-
-    def summary(self) -> dict:
-        """The run's numbers (what ``forcespace sample --json`` prints)."""
-        ens = self.ensemble
-        return {"n_samples": ens.n_samples, "dim_S": self.dim, "n_rows": self.n_rows,
-                **self.times, "cpu": self.cpu, "counts": self.counts,
-                "walk": self.walk_info, "frame_equality_floor": self.frame_equality_floor,
-                "frame_widening": self.frame_widening,
-                "max_violation": float(ens.violations.max(initial=0.0)),
-                "params": self.params, "status": self.status, "message": self.message,
-                **ens.diagnostics}
-

@@ -1,6 +1,9 @@
 """The one sampling driver: set-up or resume, draw, buffer, checkpoint, stop.
 
-Every sampler is a *walk* (hit-and-run, the relax walk) with five parts:
+Every sampler is a *walk* (:class:`~forcespace.sampling.hit_and_run.HitAndRunFrameWalk`
+and :class:`~forcespace.sampling.billiard.BilliardFrameWalk`, both on the template
+:class:`~forcespace.sampling.frame.FrameWalk`;
+:class:`~forcespace.sampling.relax_walk.KickRelaxWalk`) with five parts:
 
 * ``sampler`` (its name in files) and ``params`` (the parameters a file records
   and is fingerprinted with), ``tolerance_description`` (one line for the file);
@@ -281,8 +284,76 @@ class Sampler(Computed):
         return f"{type(self).__name__}(n={self.n}, seed={self.seed})"
 
 
+class TimedStop(Stop):
+    """:class:`Stop` that also counts the CPU seconds of its convergence checks (the
+    run's diagnostics, kept apart from the sampling's)."""
+
+    def __init__(self, *args, **kw):
+        super().__init__(*args, **kw)
+        self.cpu_s = 0.0
+
+    def __call__(self, k, samples, t0):
+        c0 = time.process_time()
+        try:
+            return super().__call__(k, samples, t0)
+        finally:
+            self.cpu_s += time.process_time() - c0
+
+
 class FrameSampler(Sampler):
-    """A sampler that walks in the rounded affine frame of S (hit-and-run, billiard)."""
+    """A sampler that walks in the rounded affine frame of S (hit-and-run, billiard):
+    ``Walk`` its :class:`~forcespace.sampling.frame.FrameWalk`, the options its own
+    (checked by the subclass before ``__init__``); compute, results and summary are
+    these, with :meth:`_walk_results` and :meth:`_summary_extra` for the walk's own."""
+
+    Walk = None
+
+    def __init__(self, n: int, seed: int, max_seconds, checkpoint_every: int,
+                 progress: bool, target_ess, **options):
+        check_target(target_ess)
+        self.n, self.seed, self.progress = n, seed, progress
+        self.max_seconds, self.checkpoint_every = max_seconds, checkpoint_every
+        self.target_ess = target_ess
+        self.options = dict(seed=seed, **options)
+
+    def compute(self, problem, output=None, analysis=None):
+        """Sample S of ``problem`` (in memory, or into the ensemble file ``output``,
+        resumed when it continues this run); ``analysis``: its ForceSpace, if computed."""
+        t0, c0 = time.perf_counter(), time.process_time()
+        walk = self.Walk(problem, self.options, analysis, self.progress)
+        stop = TimedStop(self.n, self.max_seconds, self.target_ess, walk.params["chains"],
+                         walk.params["seed"])
+        ens = run_walk(walk, problem, stop, output, self.checkpoint_every, self.progress,
+                       t_start=t0)
+        self._start()
+        wall = time.perf_counter() - t0
+        self._results.update(
+            ensemble=ens, dim=walk.d, n_rows=int(walk.H0.shape[0]), params=walk.params,
+            times=dict(walk.times, wall_time_s=wall, sampling_s=wall - sum(walk.times.values())),
+            cpu=dict(walk.cpu, diagnostics_s=stop.cpu_s, total_s=time.process_time() - c0),
+            frame_equality_floor=walk.frame_equality_floor, frame_widening=walk.widening,
+            **self._walk_results(walk))
+        self._finish(ens.status, ens.message)
+        return self
+
+    def _walk_results(self, walk) -> dict:
+        """Results of the walk beyond the frame samplers' own."""
+        return {}
+
+    def _summary_extra(self) -> dict:
+        """The walk's own lines of :meth:`summary`."""
+        return {}
+
+    def summary(self) -> dict:
+        """The run's numbers (what ``forcespace sample --json`` prints)."""
+        ens = self.ensemble
+        return {"n_samples": ens.n_samples, "dim_S": self.dim, "n_rows": self.n_rows,
+                **self.times, "cpu": self.cpu, **self._summary_extra(),
+                "frame_equality_floor": self.frame_equality_floor,
+                "frame_widening": self.frame_widening,
+                "max_violation": float(ens.violations.max(initial=0.0)),
+                "params": self.params, "status": self.status, "message": self.message,
+                **ens.diagnostics}
 
     @property
     def dim(self) -> int:

@@ -38,23 +38,18 @@ averages) and of three fixed random projections; per-chain η.
 from __future__ import annotations
 
 import time
-from typing import NamedTuple
 
 import numpy as np
 
 from .. import config
 from ..errors import InputError, NumericalError, require_int
 from ..kernels import kernel
-from ..linalg import onto_affine_hull
-from ..model.problem import StaticsProblem
 from ..progress import progress as progress_bar
-from ..space.force_space import ForceSpace
-from ..space.lp import inner_ball
 from ..streams import chain_states
-from .driver import FrameSampler, Stop, check_target, run_walk
+from .driver import FrameSampler
+from .frame import FrameWalk
 from .rounding import mve_rounding
 from .xoshiro import normal, uniform
-
 
 
 # ----------------------------------------------------------------------------
@@ -139,106 +134,6 @@ def har_steps(H, s0, w, state, n_steps, coordinate):
 # ----------------------------------------------------------------------------
 
 
-class Frame(NamedTuple):
-    """S in its affine hull: x = xc + N y for the points y of {H0 y <= s0}.
-
-    xc (2m,) [F0] a point of the hull strictly inside every free row (slacks s0 > 0, of
-    the widened rows when ``widening`` > 0);
-    N (2m, d) orthonormal basis of the hull; H0 = G_free N (p, d) [1]; s0 (p,) [F0];
-    free (p,) the rows of ``problem.inequalities()`` kept; analysis the ForceSpace;
-    widening [<Fn>]: 0, or how far every free row was moved out because S, thinner than
-    round-off in a direction its dimension keeps, had no point strictly inside in the
-    hull (:func:`frame`): every sample then lies within ``widening`` of S."""
-    xc: np.ndarray
-    N: np.ndarray
-    H0: np.ndarray
-    s0: np.ndarray
-    free: np.ndarray
-    analysis: object
-    widening: float = 0.0
-
-
-def frame(problem: StaticsProblem, analysis=None) -> Frame:
-    """The affine frame of S (:class:`Frame`).
-
-    The free rows are the inequalities that are neither implicit equalities nor
-    constant on the affine hull (|G_i N| <= FLAT_ROW)."""
-    an = analysis if analysis is not None else ForceSpace(ranges=False, centre=True).compute(problem)
-    if not an.success:
-        raise NumericalError(f"analysis of S failed: {an.message}")
-    if not an.feasible:
-        raise InputError(problem.source or "problem", "S", "is empty (infeasible): nothing to sample")
-    if not an.bounded:
-        raise InputError(problem.source or "problem", "S",
-                         "is unbounded (a recession direction exists, e.g. a wedged contact); "
-                         "refusing to sample")
-    if an.centre is None:
-        raise NumericalError("no Chebyshev centre computed")
-    G, _, _ = problem.inequalities()
-    free = np.setdiff1d(np.arange(G.shape[0]), an.implicit_rows)
-    N = an.affine_basis
-    # centre projected exactly onto the affine hull through the affine point
-    xc = onto_affine_hull(an.centre, an.affine_point, N)
-    H0 = np.asarray(G[free] @ N)
-    s0 = -np.asarray(G[free] @ xc)
-    # rows orthogonal to the affine hull up to round-off are constant on S: with a slack
-    # within round-off of 0 they are implicit equalities the LP test missed (their
-    # slack, +-1e-11, would stop the rounding), with a positive one they never bind
-    flat = np.linalg.norm(H0, axis=1) <= config.FLAT_ROW
-    bad = flat & (s0 < -config.SAMPLE_VIOLATION * problem.force_scale)
-    if bad.any():
-        raise NumericalError(f"the centre of S violates inequality row {free[bad][0]} by "
-                             f"{-s0[bad].min() / problem.force_scale:.3g} <Fn>, and no point "
-                             f"of the affine hull satisfies it better")
-    H0, s0, free = H0[~flat], s0[~flat], free[~flat]
-    widening = 0.0
-    if H0.shape[1] and s0.size and s0.min() <= 0:
-        # the centre, projected onto the hull, sits on (or a round-off outside) a facet of a
-        # thin S: recentre in the frame's own coordinates, where no projection intervenes
-        y = _frame_centre(H0, s0, problem)
-        xc, s0 = xc + N @ y, s0 - H0 @ y
-        if s0.min() <= 0:
-            widening = _widening(s0, problem, free)
-            s0 = s0 + widening * problem.force_scale
-    return Frame(xc, N, H0, s0, free, an, widening)
-
-
-def _frame_centre(H0, s0, problem) -> np.ndarray:
-    """The Chebyshev centre y (d,) of {H0 y <= s0} [F0] (:func:`space.lp.inner_ball`), or
-    y = 0 (the analysis' centre) when that LP has no optimum (size study, n = 2000,
-    mu = 1, seed 10: every HiGHS attempt ended without one). Either way the slacks at y
-    decide (:func:`_widening`): a radius <= 0 means S is thinner than HiGHS' tolerances."""
-    ball = inner_ball(H0, s0, problem.force_scale)
-    return np.zeros(H0.shape[1]) if ball is None else ball[0]
-
-
-def _widening(s, problem, rows) -> float:
-    """How far [<Fn>] to move every free row out when the frame's Chebyshev centre misses
-    S by round-off: its largest violation (-min s / <Fn>) plus config.FRAME_MARGIN, the
-    slack the walks start with. Size study, n = 5000, mu = 1, seed 4: S (dim 38) is
-    ~1e-8 <Fn> thick in one direction and ~1 <Fn> wide in the others; with the implicit
-    rows held exactly, no point of the hull is strictly inside (HiGHS' centre misses a
-    row by 1.6e-8 <Fn>, and an LP with iterative refinement does no better than 2e-8).
-    Beyond config.FRAME_MAX_WIDENING the frame is refused (NumericalError)."""
-    miss = -float(s.min()) / problem.force_scale
-    widening = miss + config.FRAME_MARGIN
-    if widening > config.FRAME_MAX_WIDENING:
-        raise NumericalError(f"S has no point strictly inside its affine hull: its centre "
-                             f"misses inequality row {rows[int(np.argmin(s))]} by {miss:.3g} "
-                             f"<Fn> (more than {config.FRAME_MAX_WIDENING:g} <Fn> may not be "
-                             f"widened: S is numerically thinner than its dimension says)")
-    return widening
-
-
-def tolerance_description(widening: float) -> str:
-    """The ensemble file's tolerance line of a walk in the frame (both uniform samplers):
-    the checked violation bound, the frame's equilibrium floor and its widening, if any."""
-    return (f"every sample has max violation <= {config.SAMPLE_VIOLATION} relative to <Fn> "
-            "(checked), plus the equilibrium floor of the frame's directions |A T| |w| / <Fn>"
-            + (f", plus the frame's widening {widening:.3g} <Fn> (S had no point strictly "
-               "inside in its affine hull)" if widening else ""))
-
-
 def rounding_method(n_rows: int) -> str:
     """The rounding for a polytope of ``n_rows`` inequalities: "mve" (exact, its p x p
     factorisations cost O(p^3) per iteration) up to MVE_MAX_ROWS rows, "john" (the
@@ -305,103 +200,52 @@ def check_options(n, chains=None, thin=None, burn_in=None, direction=None,
                          got=direction)
 
 
-class _Walk:
-    """Hit-and-run as a walk of :func:`forcespace.sampling.driver.run_walk`."""
+class HitAndRunFrameWalk(FrameWalk):
+    """Hit-and-run in the rounded frame (:class:`~forcespace.sampling.frame.FrameWalk`):
+    ``thin`` steps of chain i % chains between its samples."""
 
     sampler = "hit-and-run"
 
-    def __init__(self, problem: StaticsProblem, options: dict, analysis, progress: bool):
-        t0, c0 = time.perf_counter(), time.process_time()
-        self.problem, self.progress = problem, progress
-        (self.xc, self.N, self.H0, self.s0, self.free, self.analysis,
-         self.widening) = frame(problem, analysis)
-        self.d = self.N.shape[1]
-        self.params = default_params(self.d, self.H0.shape[0], **options)
-        self.times = {"frame_s": time.perf_counter() - t0, "rounding_s": 0.0, "burn_in_s": 0.0}
-        self.cpu = {"frame_s": time.process_time() - c0, "rounding_s": 0.0, "burn_in_s": 0.0}
-        self.tolerance_description = tolerance_description(self.widening)
-        self.floor_max = 0.0
+    def default_params(self, options: dict) -> dict:
+        return default_params(self.d, self.H0.shape[0], **options)
 
-    def set_up(self):
-        """Rounding and burn-in: (setup, describe, checkpoint, checkpoint_attrs)."""
-        p, d, scale = self.params, self.d, self.problem.force_scale
-        xc, s0, H0, N = self.xc, self.s0, self.H0, self.N
-        if d:
-            t1, c1 = time.perf_counter(), time.process_time()
-            y0, L, rinfo = rounding(H0, s0, scale, progress=self.progress, method=p["rounding"])
-            xc = xc + scale * (N @ y0)
-            s0 = s0 - scale * (H0 @ y0)
-            T = scale * (N @ L)
-            H = np.asfortranarray(scale * (H0 @ L))
-            self.times["rounding_s"] = time.perf_counter() - t1
-            self.cpu["rounding_s"] = time.process_time() - c1
-        else:
-            T, H, rinfo = np.zeros((N.shape[0], 0)), np.zeros((H0.shape[0], 0)), {}
-        states = chain_states(p["seed"], p["chains"])
-        W = np.zeros((p["chains"], d))
+    def round(self):
+        return rounding(self.H0, self.frame.s0, self.problem.force_scale,
+                        progress=self.progress, method=self.params["rounding"])
+
+    def start_chains(self, H, s):
+        p = self.params
+        self.H, self.s0 = np.asfortranarray(H), s
+        self.states = chain_states(p["seed"], p["chains"])
+        self.W = np.zeros((p["chains"], self.d))
         t1, c1 = time.perf_counter(), time.process_time()
-        if d:
-            run_burn_in(H, s0, W, states, p["burn_in"], p["direction"] == "coordinate",
-                        self.progress)
+        if self.d:
+            run_burn_in(self.H, s, self.W, self.states, p["burn_in"],
+                        p["direction"] == "coordinate", self.progress)
         self.times["burn_in_s"] = time.perf_counter() - t1
         self.cpu["burn_in_s"] = time.process_time() - c1
-        self._start_chains(xc, T, H, s0, W, states)
-        setup = {"x_centre": xc, "T": T, "H": np.ascontiguousarray(H), "s0": s0,
-                 "free_rows": self.free,
-                 "mve_axis_ratio": np.asarray(rinfo.get("axis_ratio", []), float)}
-        return setup, SETUP_DESCRIPTION, {"w": W, "rng": states}, \
-            {"n_done": 0, "steps_per_sample": p["thin"]}
+        return self.H, s
 
-    def resume(self, stored) -> None:
-        """Continue from an ensemble file's set-up and checkpoint."""
-        p, d = self.params, self.d
-        try:
-            W = stored.checkpoint["w"].reshape(p["chains"], d).copy()
-            states = stored.checkpoint["rng"].astype(np.uint64).reshape(p["chains"], 4).copy()
-        except (KeyError, ValueError) as exc:
-            raise InputError(stored.ensemble.path, "checkpoint", f"corrupt ({exc}); delete "
-                             "the file to restart") from None
-        if not (np.all(np.isfinite(W))):
-            raise InputError(stored.ensemble.path, "checkpoint/w", "must be finite (the "
-                             "stored chain state was changed); delete the file to restart")
-        st = stored.setup
-        self._start_chains(st["x_centre"], st["T"], np.asfortranarray(st["H"]), st["s0"], W,
-                           states)
+    def setup_extra(self) -> dict:
+        return {"mve_axis_ratio": np.asarray(self.rounding_info.get("axis_ratio", []), float)}
 
-    def _start_chains(self, xc, T, H, s0, W, states) -> None:
-        self.xc, self.T, self.H, self.s0, self.W, self.states = xc, T, H, s0, W, states
-        self.ok = (W.copy(), states.copy())      # chain state after the last accepted sample
-        # The analysis keeps directions whose equilibrium residual is below its rank
-        # tolerance (singular values ~1e-10 of the largest): along them equilibrium is off by
-        # |A T| |w|, a floor of the frame itself (seen at 1.5e-9 <Fn> at mu = 10), allowed
-        # on top of config.SAMPLE_VIOLATION.
-        self.abs_AT = np.abs(self.problem.A @ T) / self.problem.force_scale if self.d \
-            else np.zeros((0, 0))
+    def resume_chains(self, setup, checkpoint, state) -> None:
+        self.H, self.s0 = np.asfortranarray(setup["H"]), setup["s0"]
+        self.W, self.states = state["w"], state["rng"]
 
-    def draw(self, i: int):
-        p = self.params
-        c = i % p["chains"]
-        W, states = self.W, self.states
-        if self.d:
-            bad = har_steps(self.H, self.s0, W[c], states[c], p["thin"],
-                            p["direction"] == "coordinate")
-            if bad > p["thin"] // 2:
-                raise NumericalError("hit-and-run: most chords degenerate; S is "
-                                     "(numerically) flat in a direction the analysis kept")
-        x = self.xc + self.T @ W[c]
-        v = self.problem.violation(x)
-        floor = float((self.abs_AT @ np.abs(W[c])).max(initial=0.0)) if self.d else 0.0
-        self.floor_max = max(self.floor_max, floor)
-        allowed = config.SAMPLE_VIOLATION + floor + self.widening
-        if not v <= allowed:
-            raise NumericalError(f"hit-and-run sample {i} violates S by {v:.3e} x "
-                                 f"<Fn> (> {allowed:.3e})")
-        self.ok[0][c], self.ok[1][c] = W[c], states[c]
-        return x, c, v
+    def chain_arrays(self) -> tuple:
+        return self.W, self.states
 
-    def state(self, n_total: int):
-        return ({"w": self.ok[0], "rng": self.ok[1]},
-                {"n_done": n_total, "steps_per_sample": self.params["thin"]})
+    def advance(self, c: int) -> None:
+        thin = self.params["thin"]
+        bad = har_steps(self.H, self.s0, self.W[c], self.states[c], thin,
+                        self.params["direction"] == "coordinate")
+        if bad > thin // 2:
+            raise NumericalError("hit-and-run: most chords degenerate; S is "
+                                 "(numerically) flat in a direction the analysis kept")
+
+    def state_attrs(self) -> dict:
+        return {"steps_per_sample": self.params["thin"]}
 
 
 SETUP_DESCRIPTION = {
@@ -429,47 +273,13 @@ class HitAndRun(FrameSampler):
     ``frame_equality_floor``.
     """
 
+    Walk = HitAndRunFrameWalk
+
     def __init__(self, n: int = 100, seed: int = 0, chains: int | None = None,
                  thin: int | None = None, burn_in: int | None = None,
                  direction: str | None = None, max_seconds: float | None = None,
                  checkpoint_every: int = 10, progress: bool = False,
                  target_ess: float | None = None):
         check_options(n, chains, thin, burn_in, direction, checkpoint_every)
-        check_target(target_ess)
-        self.n, self.seed, self.progress = n, seed, progress
-        self.max_seconds, self.checkpoint_every = max_seconds, checkpoint_every
-        self.target_ess = target_ess
-        self.options = dict(seed=seed, chains=chains, thin=thin, burn_in=burn_in,
-                            direction=direction)
-
-    def compute(self, problem: StaticsProblem, output=None, analysis=None) -> "HitAndRun":
-        """Sample S of ``problem``; ``analysis``: its ForceSpace, if already computed."""
-        t0, c0 = time.perf_counter(), time.process_time()
-        walk = _Walk(problem, self.options, analysis, self.progress)
-        stop = Stop(self.n, self.max_seconds, self.target_ess, walk.params["chains"],
-                    walk.params["seed"])
-        ens = run_walk(walk, problem, stop, output, self.checkpoint_every, self.progress,
-                       t_start=t0)
-        self._start()
-        wall = time.perf_counter() - t0
-        times = dict(walk.times, wall_time_s=wall,
-                     sampling_s=wall - sum(walk.times.values()))
-        cpu_total = time.process_time() - c0
-        cpu = dict(walk.cpu, sampling_s=cpu_total - sum(walk.cpu.values()), total_s=cpu_total)
-        self._results.update(ensemble=ens, dim=walk.d, n_rows=int(walk.H0.shape[0]),
-                             times=times, cpu=cpu, frame_equality_floor=walk.floor_max,
-                             frame_widening=walk.widening,
-                             params=walk.params)
-        self._finish(ens.status, ens.message)
-        return self
-
-    def summary(self) -> dict:
-        """The run's numbers (what ``forcespace sample --json`` prints)."""
-        ens = self.ensemble
-        return {"n_samples": ens.n_samples, "dim_S": self.dim, "n_rows": self.n_rows,
-                **self.times, "cpu": self.cpu, "frame_equality_floor": self.frame_equality_floor,
-                "frame_widening": self.frame_widening,
-                "max_violation": float(ens.violations.max(initial=0.0)),
-                "params": self.params, "status": self.status, "message": self.message,
-                **ens.diagnostics}
-
+        super().__init__(n, seed, max_seconds, checkpoint_every, progress, target_ess,
+                         chains=chains, thin=thin, burn_in=burn_in, direction=direction)

@@ -120,7 +120,7 @@ def check_options(n, tol, checkpoint_every=1, source="sample"):
                          "relative to <Fn>)", got=tol)
 
 
-class _Walk:
+class KickRelaxWalk:
     """The relax walk as a walk of :func:`forcespace.sampling.driver.run_walk`.
 
     ``chains`` independent walks from the same relaxed start, sample i drawn by chain
@@ -233,7 +233,7 @@ class RelaxWalk(Sampler):
     def compute(self, problem: StaticsProblem, output=None, start=None) -> "RelaxWalk":
         """Walk through S of ``problem`` (refuses an empty or unbounded S)."""
         t0 = time.perf_counter()
-        walk = _Walk(problem, self.seed, self.tol, self.chunk, self.max_sweeps, start,
+        walk = KickRelaxWalk(problem, self.seed, self.tol, self.chunk, self.max_sweeps, start,
                      self.chains)
         feas, _, _ = check_feasible(problem)
         if not feas:
