@@ -9,7 +9,7 @@ modules (``import a.b as m``) and what is read through them (``m._x``), its func
 
 * the library: no import cycle (``if TYPE_CHECKING:`` blocks are annotations, not
   imports); no other module's private (underscore) name, imported or read through a module
-  alias; never a plug-in; functions at most ``MAX_LINES`` lines, numba kernels at most
+  alias; never a plug-in; ``io`` imports no stage above it; functions at most ``MAX_LINES`` lines, numba kernels at most
   ``MAX_KERNEL_LINES`` lines and ``MAX_KERNEL_ARGS`` parameters (they take records); the
   engine takes the scene only at its entry points; random streams seeded in
   ``streams.py`` only;
@@ -243,6 +243,26 @@ def test_the_library_has_no_import_cycle_and_no_private_import():
 def test_the_library_imports_neither_plug_in():
     wrong = [f"{s.where}:{i.line} imports {i.target}" for s in library() for i in s.imports
              if i.target.startswith(PLUGIN_PACKAGES)]
+    assert not wrong, "\n".join(wrong)
+
+
+# io is the edge: the stages read and write files through it, it imports none of them
+# (the model's nouns it reads and writes, errors, config and the kernel stamp aside)
+IO_MAY_IMPORT = ("forcespace.io", "forcespace.model", "forcespace.errors", "forcespace.config",
+                 "forcespace.kernels")
+
+
+def test_io_imports_no_stage_above_it():
+    wrong = []
+    for s in library():
+        if not (s.module or "").startswith("forcespace.io"):
+            continue
+        for imp in s.imports:
+            full = f"{imp.target}.{imp.name}" if imp.name else imp.target
+            if not full.startswith("forcespace") or full == "forcespace.__version__":
+                continue
+            if not full.startswith(IO_MAY_IMPORT):
+                wrong.append(f"{s.where}:{imp.line} imports {full}")
     assert not wrong, "\n".join(wrong)
 
 

@@ -53,7 +53,7 @@ def test_a_log_axis_without_positive_data_is_saved_linear_with_a_note(tmp_path):
     # the figure is still written (linear, with a note), not a matplotlib error
     from matplotlib.figure import Figure
 
-    from forcespace.plot import save_figure
+    from forcespace.io.figures import save_figure
     fig = Figure()
     ax_empty, ax_zero = fig.subplots(1, 2)
     ax_empty.set(xscale="log", yscale="log")
@@ -73,7 +73,7 @@ def test_a_title_above_the_figure_edge_is_saved_not_cut_off(tmp_path):
     import matplotlib.image as mpimg
     from matplotlib.figure import Figure
 
-    from forcespace.plot import save_figure
+    from forcespace.io.figures import save_figure
     fig = Figure(figsize=(4, 3), dpi=100)
     ax = fig.subplots()
     ax.set_aspect("equal")

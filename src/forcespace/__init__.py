@@ -55,9 +55,9 @@ _LAZY = {
     "Section": "space.section", "Selection": "space.selection",
     "HitAndRun": "sampling.hit_and_run", "BilliardWalk": "sampling.billiard",
     "RelaxWalk": "sampling.relax_walk",
-    "Ensemble": "sampling.ensemble",
+    "Ensemble": "model.ensemble",
     "read_packing": "io.packing_file", "write_packing": "io.packing_file",
-    "read_ensemble": "io.ensemble_file",
+    "read_ensemble": "sampling.diagnostics",
     "eta": "measures", "distance_from_centre": "measures", "difference_field": "measures",
     "plot_difference": "plot", "plot_packing": "plot",
 }

@@ -76,7 +76,7 @@ _SURFACE = {
     "write_json": ("io.jsonfile", "write_json"),
     "progress": ("progress", "progress"),
     # figures
-    "save_figure": ("plot", "save_figure"), "LABELS": ("plot", "LABELS"),
+    "save_figure": ("io.figures", "save_figure"), "LABELS": ("plot", "LABELS"),
 }
 
 __all__ = sorted(_SURFACE)

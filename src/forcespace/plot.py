@@ -8,45 +8,14 @@ same helpers.
 """
 from __future__ import annotations
 
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .io.h5 import atomic_path
+from .io.figures import save_figure
 
 if TYPE_CHECKING:      # annotations only: figures never import the model
     from .model.packing import Packing
-
-
-def figure_targets(path) -> list[Path]:
-    """The files a figure path produces: itself, and a PDF twin beside a PNG."""
-    path = Path(path)
-    return [path] + ([path.with_suffix(".pdf")] if path.suffix.lower() == ".png" else [])
-
-
-def branch_segments(p: Packing, values=None):
-    """Segments (Nc, 2, 2) from centre to centre (walls: to the contact point), and values.
-
-    Segments crossing the periodic boundary are drawn from a's centre toward b's image.
-    """
-    seg = np.empty((p.n_contacts, 2, 2))
-    for k in range(p.n_contacts):
-        a, b = p.a[k], p.b[k]
-        if a >= 0:
-            pa = np.array([p.x[a], p.y[a]])
-        else:
-            pa = p.point[k]
-        if b >= 0:
-            pb = np.array([p.x[b] + p.image[k] * p.width, p.y[b]])
-        else:
-            pb = p.point[k]
-        if a < 0:
-            pa = pb - (p.r[b]) * p.normal[k]
-        if b < 0:
-            pb = pa + (p.r[a]) * p.normal[k]
-        seg[k] = pa, pb
-    return seg, (p.fn if values is None else values)
 
 
 # One style for every figure of forcespace (and for the studies' figures: import these).
@@ -146,7 +115,7 @@ def plot_packing(p: Packing, ax=None, values=None, signed: bool = False,
     from matplotlib.patches import Circle, Patch
 
     ax = new_axes(p) if ax is None else ax
-    seg, val = branch_segments(p, values)
+    seg, val = p.branch_segments(values)
     val = np.asarray(val, float)
     shifts = [-1, 0, 1] if p.periodic_x else [0]
     patches = [Circle((x + s * p.width, y), r) for s in shifts for x, y, r in zip(p.x, p.y, p.r)]
@@ -230,32 +199,3 @@ def draw_packing(p: Packing, path, title: str | None = None, values=None,
     ``.png`` also gets a ``.pdf`` twin)."""
     ax = plot_packing(p, None, values=values, signed=signed, title=title)
     save_figure(ax.figure, path, dpi, tight=True)
-
-
-def _unlog_empty_axes(fig) -> None:
-    """A log axis with no positive data (e.g. no converged chain to plot) cannot be drawn:
-    it goes linear and says so, instead of ending the run in a matplotlib error."""
-    for ax in fig.axes:
-        for name, interval in (("x", ax.dataLim.intervalx), ("y", ax.dataLim.intervaly)):
-            scale = ax.get_xscale() if name == "x" else ax.get_yscale()
-            hi = max(interval)
-            if scale == "log" and not (np.isfinite(hi) and hi > 0):
-                (ax.set_xscale if name == "x" else ax.set_yscale)("linear")
-                ax.text(0.5, 0.5, f"no positive values on the {name} axis",
-                        transform=ax.transAxes, ha="center", va="center", fontsize=8,
-                        color="grey")
-
-
-def save_figure(fig, path, dpi=150, tight: bool = False):
-    """Save ``fig`` at ``path``; a PNG also gets a PDF twin. Atomic via temp + rename.
-    A log axis without positive data is drawn linear with a note; ``tight``: lay the
-    figure out with ``tight_layout`` first. The saved image is cropped to everything
-    drawn, so a title or legend placed outside an Axes (above an equal-aspect packing,
-    where ``tight_layout`` cannot make room) is never cut off."""
-    _unlog_empty_axes(fig)
-    if tight:
-        fig.tight_layout()
-    for t in figure_targets(path):
-        with atomic_path(t) as tmp:
-            fig.savefig(tmp, dpi=dpi, format=t.suffix.lstrip(".").lower() or "png",
-                        bbox_inches="tight", pad_inches=0.1)

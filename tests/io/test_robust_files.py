@@ -11,7 +11,8 @@ import pytest
 
 from ensemble_cases import grooves, pyramid
 from forcespace.io import ensemble_file as ef
-from forcespace.io.ensemble_file import fingerprint, read_ensemble, read_file
+from forcespace.io.ensemble_file import fingerprint, read_file
+from forcespace.sampling.diagnostics import read_ensemble
 from forcespace.sampling.relax_walk import RelaxWalk
 from forcespace.cli import main
 from forcespace.io.outputs import output_lock

@@ -4,7 +4,7 @@ from paths import PACKINGS
 
 import numpy as np
 
-from forcespace.io.ensemble_file import read_ensemble
+from forcespace.sampling.diagnostics import read_ensemble
 from forcespace.cli import main
 from forcespace.io.packing_file import read_packing
 from forcespace.space.force_space import ForceSpace

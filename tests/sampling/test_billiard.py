@@ -21,7 +21,8 @@ from scipy import stats
 
 from ensemble_cases import grooves
 from forcespace import config
-from forcespace.io.ensemble_file import read_ensemble, read_file
+from forcespace.io.ensemble_file import read_file
+from forcespace.sampling.diagnostics import read_ensemble
 from forcespace.measures import eta
 from forcespace.sampling import billiard as bw
 from forcespace.sampling.billiard import BilliardWalk
@@ -307,3 +308,18 @@ def test_agrees_with_hit_and_run_on_a_paper_slice():
     lh = distance_from_centre(har.samples, x0)
     assert lb[1] / lb[2] == pytest.approx(lh[1] / lh[2], rel=0.05)
     assert np.std(lb[0]) / lb[2] == pytest.approx(np.std(lh[0]) / lh[2], rel=0.1)
+
+
+@pytest.mark.parametrize("cls", [BilliardWalk, HitAndRun])
+def test_an_ensemble_read_back_carries_its_rhat_and_ess(cls, tmp_path):
+    # issue 40: reading an ensemble file recomputed the diagnostics for hit-and-run only,
+    # so a billiard ensemble read back had no R-hat and no ESS; now every sampler's file
+    # reads back with the numbers the run had in memory
+    _, prob = grooves([0.3, 0.5, 0.7], 0.4)
+    out = tmp_path / "e.h5"
+    run = cls(120, seed=3).compute(prob, output=out)
+    mem, back = run.ensemble.diagnostics, read_ensemble(out).diagnostics
+    assert run.ensemble.n_samples == 120 and run.dim >= 1
+    for key in ("max_rhat", "min_ess", "rhat_sqdev", "ess_sqdev"):
+        assert np.isfinite(back[key]) and back[key] == mem[key], key
+    assert back["statistics"] == mem["statistics"]

@@ -6,7 +6,8 @@ import pytest
 from ensemble_cases import grooves, pyramid
 from forcespace import config
 from forcespace.cli import main
-from forcespace.io.ensemble_file import read_ensemble, read_file
+from forcespace.io.ensemble_file import read_file
+from forcespace.sampling.diagnostics import read_ensemble
 from forcespace.sampling import hit_and_run as har
 from forcespace.sampling import relax_walk as rs
 from forcespace.sampling.hit_and_run import HitAndRun

@@ -6,7 +6,7 @@ from scipy import stats
 from ensemble_cases import groove_interval, grooves, lattice_in_box, lattice_rows
 from forcespace import config
 from forcespace.errors import InputError
-from forcespace.io.ensemble_file import read_ensemble
+from forcespace.sampling.diagnostics import read_ensemble
 from forcespace.sampling import hit_and_run as har
 from forcespace.sampling.frame import frame
 from forcespace.sampling.hit_and_run import HitAndRun

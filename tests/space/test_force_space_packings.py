@@ -5,7 +5,8 @@ from forcespace import config
 import pytest
 
 from ensemble_cases import grooves, lattice_rows
-from forcespace.io.ensemble_file import read_ensemble, read_file
+from forcespace.io.ensemble_file import read_file
+from forcespace.sampling.diagnostics import read_ensemble
 from forcespace.sampling.hit_and_run import HitAndRun
 from forcespace.sampling.relax_walk import RelaxWalk
 from forcespace.measures import eta

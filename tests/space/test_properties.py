@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from ensemble_cases import lattice_rows
-from forcespace.io.ensemble_file import read_ensemble
+from forcespace.sampling.diagnostics import read_ensemble
 from forcespace.sampling.hit_and_run import HitAndRun
 from forcespace.measures import eta
 from forcespace.space.force_space import ForceSpace

@@ -105,7 +105,7 @@ def test_a_quick_run_is_a_smoke_test_and_defaults_to_the_working_directory(tmp_p
 def test_provenance_in_task_json_tables_and_ensembles(tmp_path):
     from forcespace.io.h5 import code_version
     from forcespace_studies import fig1
-    from forcespace.io.ensemble_file import read_ensemble
+    from forcespace.sampling.diagnostics import read_ensemble
     task = Task("mu0.1_s1", "forcespace_studies.fig1:packing_task",
                 dict(scene="quick", n_disks=20, slice_height=10.0, cap=40, mu=0.01, seed=2,
                      max_seconds=30.0))

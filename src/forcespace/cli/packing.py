@@ -97,7 +97,8 @@ def cmd_draw(args) -> int:
         return 0
     from .space import load_problem
     from ..space.structure import decompose, extreme_pair
-    from ..plot import plot_difference, save_figure
+    from ..io.figures import save_figure
+    from ..plot import plot_difference
     from .space import analysed
 
     packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)

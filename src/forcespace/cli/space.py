@@ -142,7 +142,7 @@ def cmd_sample(args) -> int:
 def cmd_ensemble(args) -> int:
     from .printing import print_result
 
-    from ..io.ensemble_file import read_ensemble
+    from ..sampling.diagnostics import read_ensemble
     out = read_ensemble(args.ensemble).summary()
     print_result(out, args.json)
     return 0
@@ -160,7 +160,7 @@ def cmd_section(args) -> int:
     sec = Section(n=args.n, seed=args.seed).compute(problem)
     ax = sec.plot(title=f"S through the jammed network ({problem.kind}, seed {args.seed})")
     ax.figure.tight_layout()
-    from ..plot import save_figure
+    from ..io.figures import save_figure
     save_figure(ax.figure, args.output)
     print_result({"figure": str(args.output), "inside_fraction": sec.inside_fraction,
                   "s_range": list(sec.s_range), "t_range": list(sec.t_range),

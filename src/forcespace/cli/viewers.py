@@ -35,7 +35,7 @@ def register(sub) -> None:
 
 
 def cmd_view(args) -> int:
-    from ..io.ensemble_file import read_ensemble
+    from ..sampling.diagnostics import read_ensemble
     from ..io.outputs import check_output_dir
     from ..io.packing_file import read_packing
     from ..io.viewers import FORMATS, write_viewer_files

@@ -38,8 +38,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model.problem import StaticsProblem
-from ..sampling.diagnostics import diagnostics
-from ..sampling.ensemble import Ensemble
+from ..model.ensemble import Ensemble
 from .h5 import atomic_h5, atomic_replace_copy, code_version, open_h5, write_dataset
 
 KIND = "ensemble"
@@ -177,7 +176,9 @@ def _attrs(obj) -> dict:
 
 def read_file(path, samples: bool = True) -> EnsembleFile:
     """Read an ensemble file (InputError if it is not one, or if a sample no longer
-    matches its checksum); ``samples=False`` reads everything but the samples."""
+    matches its checksum); ``samples=False`` reads everything but the samples. The
+    ensemble comes without its diagnostics: the sampling stage computes them
+    (:func:`forcespace.sampling.diagnostics.read_ensemble`)."""
     with open_h5(path, KIND) as f:
         try:
             g = f["problem"]
@@ -203,14 +204,6 @@ def read_file(path, samples: bool = True) -> EnsembleFile:
                              f"({exc})") from None
     _check(ens, checks)
     return out
-
-
-def read_ensemble(path) -> Ensemble:
-    """The ensemble of an ensemble file, with its convergence diagnostics."""
-    ens = read_file(path).ensemble
-    ens.diagnostics = diagnostics(ens.samples, ens.chains, ens.params.get("seed", 0)) \
-        if ens.sampler == "hit-and-run" else {}
-    return ens
 
 
 def _check(ens: Ensemble, checksums) -> Ensemble:

@@ -87,7 +87,7 @@ def check_figure_file(path, inputs=(), field: str = "-o/--output") -> list[Path]
     twin) must pass :func:`check_output_file`. Returns those files."""
     from matplotlib.backend_bases import FigureCanvasBase
 
-    from ..plot import figure_targets
+    from .figures import figure_targets
 
     p = Path(path)
     formats = FigureCanvasBase.get_supported_filetypes()

@@ -2,7 +2,7 @@
 
 :func:`write_viewer_files` writes a packing (positions, radii, rattler flags, walls) and
 its force network (one segment per contact with fn, ft, |F|, mobilisation |ft|/(mu fn);
-given an :class:`~forcespace.sampling.ensemble.Ensemble`, each contact's mean and spread
+given an :class:`~forcespace.model.ensemble.Ensemble`, each contact's mean and spread
 over the samples) into a directory, in formats both programs read natively:
 
 OVITO (``ovito``)
@@ -38,10 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import config
 from ..errors import InputError
-from ..model.walls import BOTTOM, LEFT, RIGHT, TOP, contact_mu_array
-from ..plot import branch_segments
+from ..model.walls import BOTTOM, LEFT, RIGHT, TOP
 from .outputs import check_output_dir, mark_run_dir
 
 FORMATS = ("ovito", "vtk")
@@ -63,57 +61,13 @@ OVITO_CONTACT_PROPERTIES = {
 
 
 def contact_table(packing, ensemble=None) -> dict:
-    """Per-contact columns (each (Nc,)): contact, a, b, image, fn, ft [F0], force |F| [F0],
-    mobilisation |ft|/(mu fn), mu, gap [R], bearing (force-bearing, 0/1); with an ensemble
-    also fn_mean, ft_mean, fn_std, ft_std [F0], spread (the contact's dF of the paper's
-    eta: sqrt of the mean of |F - <F>|^2 over the samples) [F0] and sampled (0/1: the
-    contact is an unknown of the ensemble; the others keep the packing's forces and
-    spread 0)."""
-    p = packing
-    nc = p.n_contacts
-    mu = contact_mu_array(p.a, p.b, p.mu, p.plate_mu)
-    cap = mu * p.fn
-    with np.errstate(divide="ignore", invalid="ignore"):
-        mob = np.where(p.ft == 0.0, 0.0, np.where(cap > 0, np.abs(p.ft) / cap, np.nan))
-    out = {"contact": np.arange(nc), "a": p.a.copy(), "b": p.b.copy(), "image": p.image.copy(),
-           "fn": p.fn.copy(), "ft": p.ft.copy(), "force": np.hypot(p.fn, p.ft),
-           "mobilisation": mob, "mu": mu, "gap": p.gap.copy(),
-           "bearing": p.force_bearing().astype(np.int64)}
+    """The per-contact columns a viewer file carries: the packing's
+    (:meth:`~forcespace.model.packing.Packing.contact_table`) and, with an ensemble, its
+    statistics (:meth:`~forcespace.model.ensemble.Ensemble.contact_columns`)."""
+    out = packing.contact_table()
     if ensemble is not None:
-        out.update(ensemble_columns(p, ensemble))
+        out.update(ensemble.contact_columns(packing))
     return out
-
-
-def ensemble_columns(packing, ensemble) -> dict:
-    """fn_mean, ft_mean, fn_std, ft_std, spread [F0] and sampled (0/1), each (Nc,) over
-    the packing's contacts (see :func:`contact_table`). InputError if the ensemble was
-    not sampled on this packing (its contacts or jammed forces differ)."""
-    from ..measures import contact_fluctuations
-
-    p, ens = packing, ensemble
-    k = np.asarray(ens.contacts, np.int64)
-    src = ens.path or "ensemble"
-    if k.size and (k.min() < 0 or k.max() >= p.n_contacts):
-        raise InputError(src, "problem/contacts", f"refers to contacts outside this packing "
-                         f"(0..{p.n_contacts - 1}); the ensemble belongs to another packing")
-    xj = np.asarray(ens.x_jammed, float).reshape(-1, 2)
-    scale = max(abs(ens.force_scale), 1e-300)
-    if k.size and np.abs(xj[:, 0] - p.fn[k]).max() > config.FORCE_MATCH_TOL * scale:
-        raise InputError(src, "problem/x_jammed", "does not match this packing's normal "
-                         "forces; the ensemble belongs to another packing")
-    if ens.n_samples == 0:
-        raise InputError(src, "samples", "the ensemble has no samples")
-    F = ens.forces
-    fn_mean, ft_mean = p.fn.copy(), p.ft.copy()
-    zeros = np.zeros(p.n_contacts)
-    fn_std, ft_std, spread = zeros.copy(), zeros.copy(), zeros.copy()
-    sampled = np.zeros(p.n_contacts, np.int64)
-    fn_mean[k], ft_mean[k] = F[:, :, 0].mean(0), F[:, :, 1].mean(0)
-    fn_std[k], ft_std[k] = F[:, :, 0].std(0), F[:, :, 1].std(0)
-    spread[k] = contact_fluctuations(ens.samples)[0]
-    sampled[k] = 1
-    return {"fn_mean": fn_mean, "ft_mean": ft_mean, "fn_std": fn_std, "ft_std": ft_std,
-            "spread": spread, "sampled": sampled}
 
 
 def wall_segments(packing):
@@ -298,7 +252,7 @@ def write_vtk(packing, directory, ensemble=None) -> list[Path]:
         np.column_stack([p.x, p.y]), verts=np.arange(p.n_disks)[:, None],
         point_data={"radius": p.r, "diameter": 2 * p.r, "rattler": rat,
                     "disk": np.arange(p.n_disks)}))
-    seg, _ = branch_segments(p)
+    seg, _ = p.branch_segments()
     ct = contact_table(p, ensemble)
     (d / "contacts.vtp").write_text(_vtp(
         seg.reshape(-1, 2), lines=np.arange(2 * p.n_contacts).reshape(-1, 2),
@@ -341,7 +295,7 @@ def write_viewer_files(packing, directory, formats=FORMATS, ensemble=None) -> li
         raise InputError("viewer export", "format", "must be one or more of "
                          + ", ".join(FORMATS), got=bad or formats)
     if ensemble is not None:
-        ensemble_columns(packing, ensemble)          # refuse a foreign ensemble first
+        ensemble.contact_columns(packing)          # refuse a foreign ensemble first
     d = check_output_dir(directory)
     d.parent.mkdir(parents=True, exist_ok=True)
     tmp = _new_temp_dir(d)

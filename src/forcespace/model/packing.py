@@ -26,7 +26,7 @@ import numpy as np
 from .. import config
 from ..errors import InputError
 from .setup import Setup
-from .walls import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES  # noqa: F401 (re-exported)
+from .walls import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES, contact_mu_array  # noqa: F401
 
 
 @dataclass
@@ -248,6 +248,37 @@ class Packing:
         nc = int((live & keep_a & keep_b).sum())
         n = int((~rat).sum())
         return 2.0 * nc / n if n else 0.0
+
+    def branch_segments(self, values=None):
+        """Segments (Nc, 2, 2) [R] from centre to centre (walls: to the contact point), and
+        the values to draw on them (default fn). A segment crossing the periodic boundary
+        runs from a's centre toward b's image."""
+        p = self
+        seg = np.empty((p.n_contacts, 2, 2))
+        for k in range(p.n_contacts):
+            a, b = p.a[k], p.b[k]
+            pa = np.array([p.x[a], p.y[a]]) if a >= 0 else p.point[k]
+            pb = np.array([p.x[b] + p.image[k] * p.width, p.y[b]]) if b >= 0 else p.point[k]
+            if a < 0:
+                pa = pb - (p.r[b]) * p.normal[k]
+            if b < 0:
+                pb = pa + (p.r[a]) * p.normal[k]
+            seg[k] = pa, pb
+        return seg, (p.fn if values is None else values)
+
+    def contact_table(self) -> dict:
+        """Per-contact columns (each (Nc,)): contact, a, b, image, fn, ft [F0], force |F|
+        [F0], mobilisation |ft|/(mu fn), mu, gap [R], bearing (force-bearing, 0/1)."""
+        nc = self.n_contacts
+        mu = contact_mu_array(self.a, self.b, self.mu, self.plate_mu)
+        cap = mu * self.fn
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mob = np.where(self.ft == 0.0, 0.0,
+                           np.where(cap > 0, np.abs(self.ft) / cap, np.nan))
+        return {"contact": np.arange(nc), "a": self.a.copy(), "b": self.b.copy(),
+                "image": self.image.copy(), "fn": self.fn.copy(), "ft": self.ft.copy(),
+                "force": np.hypot(self.fn, self.ft), "mobilisation": mob, "mu": mu,
+                "gap": self.gap.copy(), "bearing": self.force_bearing().astype(np.int64)}
 
     def with_forces(self, fn, ft) -> "Packing":
         """A copy carrying another force state on the same contact network."""

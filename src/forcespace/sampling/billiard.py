@@ -429,7 +429,7 @@ class BilliardWalk(FrameSampler):
     stop as soon as every tracked statistic has bulk and tail ESS >= target_ess and
     split R-hat <= 1.05 (``n`` is then the cap; reaching it first is status 1);
     ``progress`` shows bars (rounding, burn-in, sampling) on stderr.
-    Results: ``ensemble`` (:class:`~forcespace.sampling.ensemble.Ensemble`, with the
+    Results: ``ensemble`` (:class:`~forcespace.model.ensemble.Ensemble`, with the
     convergence diagnostics), and the run's ``dim``, ``n_rows``, ``times`` (wall),
     ``cpu`` (CPU seconds per stage), ``counts``, ``walk_info`` (tau, max_refl, rounding),
     ``frame_equality_floor``.

@@ -132,3 +132,14 @@ def diagnostics(samples: np.ndarray, chains: np.ndarray, seed: int = 0) -> dict:
                eta_per_chain=[float(eta_fn(X[chains == c])) if (chains == c).sum() > 1
                               else float("nan") for c in ids])
     return out
+
+
+def read_ensemble(path):
+    """The ensemble of an ensemble file (:func:`forcespace.io.ensemble_file.read_file`)
+    with its convergence diagnostics, computed as the sampler computed them in memory
+    (:func:`diagnostics`, the walk's seed): the same R-hat and ESS for every sampler."""
+    from ..io.ensemble_file import read_file
+
+    ens = read_file(path).ensemble
+    ens.diagnostics = diagnostics(ens.samples, ens.chains, ens.params.get("seed", 0))
+    return ens

@@ -33,7 +33,7 @@ from ..io.outputs import check_output_file, output_lock
 from ..progress import progress as progress_bar
 from ..result import Computed
 from .diagnostics import by_chain, converged, diagnostics, summarize, tracked_statistics
-from .ensemble import Ensemble
+from ..model.ensemble import Ensemble
 
 CHECKPOINT_SECONDS = 60.0
 
@@ -256,7 +256,7 @@ class Sampler(Computed):
 
     @property
     def ensemble(self) -> Ensemble:
-        """The samples (:class:`~forcespace.sampling.ensemble.Ensemble`), with their
+        """The samples (:class:`~forcespace.model.ensemble.Ensemble`), with their
         convergence diagnostics."""
         return self._get("ensemble")
 

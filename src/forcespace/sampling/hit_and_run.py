@@ -268,7 +268,7 @@ class HitAndRun(FrameSampler):
     (status 1, every sample drawn kept); ``target_ess``: stop as soon as every tracked
     statistic has bulk and tail ESS >= target_ess and split R-hat <= 1.05 (``n`` is then
     the cap; reaching it first is status 1); ``progress`` shows bars on stderr.
-    Results: ``ensemble`` (:class:`~forcespace.sampling.ensemble.Ensemble`, with the
+    Results: ``ensemble`` (:class:`~forcespace.model.ensemble.Ensemble`, with the
     convergence diagnostics), and the run's ``dim``, ``n_rows``, ``times``,
     ``frame_equality_floor``.
     """

@@ -1,8 +1,10 @@
 """Ensemble: samples of S of one statics problem, the one result type of every sampler.
 
 Samples are in problem column order (:mod:`forcespace.model.problem`): ``samples[k, 2j]``
-is fn and ``samples[k, 2j+1]`` ft of unknown contact j [F0]. An ensemble lives in
-memory; :mod:`forcespace.io.ensemble_file` writes and reads it.
+is fn and ``samples[k, 2j+1]`` ft of unknown contact j [F0]. The samplers
+(:mod:`forcespace.sampling`) make it and compute its convergence diagnostics (in memory,
+and for one read back: :func:`forcespace.sampling.diagnostics.read_ensemble`);
+:mod:`forcespace.io.ensemble_file` writes and reads its arrays.
 """
 from __future__ import annotations
 
@@ -11,7 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import config
-from ..measures import distance_from_centre, eta
+from ..errors import InputError
+from ..measures import contact_fluctuations, distance_from_centre, eta
 
 
 @dataclass
@@ -76,6 +79,38 @@ class Ensemble:
         """(l (k,), l0, lbar) [F0]: distances of the samples and of the jammed state
         from the samples' mean (the paper's Fig. 3)."""
         return distance_from_centre(self.samples, self.x_jammed)
+
+    def contact_columns(self, packing) -> dict:
+        """fn_mean, ft_mean, fn_std, ft_std, spread [F0] and sampled (0/1), each (Nc,) over
+        ``packing``'s contacts: spread is the contact's dF of the paper's eta (sqrt of the
+        mean of |F - <F>|^2 over the samples); contacts that are not unknowns of the
+        ensemble keep the packing's forces and spread 0. InputError if the ensemble was
+        not sampled on this packing (its contacts or jammed forces differ)."""
+        p = packing
+        k = np.asarray(self.contacts, np.int64)
+        src = self.path or "ensemble"
+        if k.size and (k.min() < 0 or k.max() >= p.n_contacts):
+            raise InputError(src, "problem/contacts", f"refers to contacts outside this "
+                             f"packing (0..{p.n_contacts - 1}); the ensemble belongs to "
+                             "another packing")
+        xj = np.asarray(self.x_jammed, float).reshape(-1, 2)
+        scale = max(abs(self.force_scale), 1e-300)
+        if k.size and np.abs(xj[:, 0] - p.fn[k]).max() > config.FORCE_MATCH_TOL * scale:
+            raise InputError(src, "problem/x_jammed", "does not match this packing's normal "
+                             "forces; the ensemble belongs to another packing")
+        if self.n_samples == 0:
+            raise InputError(src, "samples", "the ensemble has no samples")
+        F = self.forces
+        fn_mean, ft_mean = p.fn.copy(), p.ft.copy()
+        zeros = np.zeros(p.n_contacts)
+        fn_std, ft_std, spread = zeros.copy(), zeros.copy(), zeros.copy()
+        sampled = np.zeros(p.n_contacts, np.int64)
+        fn_mean[k], ft_mean[k] = F[:, :, 0].mean(0), F[:, :, 1].mean(0)
+        fn_std[k], ft_std[k] = F[:, :, 0].std(0), F[:, :, 1].std(0)
+        spread[k] = contact_fluctuations(self.samples)[0]
+        sampled[k] = 1
+        return {"fn_mean": fn_mean, "ft_mean": ft_mean, "fn_std": fn_std, "ft_std": ft_std,
+                "spread": spread, "sampled": sampled}
 
     def plot(self, packing, sample: int = -1, ax=None, **kw):
         """Draw sample ``sample`` (default the last) as the force network of
