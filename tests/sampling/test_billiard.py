@@ -323,3 +323,18 @@ def test_an_ensemble_read_back_carries_its_rhat_and_ess(cls, tmp_path):
     for key in ("max_rhat", "min_ess", "rhat_sqdev", "ess_sqdev"):
         assert np.isfinite(back[key]) and back[key] == mem[key], key
     assert back["statistics"] == mem["statistics"]
+
+
+@pytest.mark.parametrize("cls", [BilliardWalk, HitAndRun])
+def test_an_ensemble_file_describes_its_frame(cls, tmp_path):
+    # the frame's set-up arrays are written with their units and meaning (issue 40's
+    # shared walk template once wrote each name as its own description, units '1')
+    import h5py
+    _, prob = grooves([0.3, 0.5, 0.7], 0.4)
+    out = tmp_path / "e.h5"
+    cls(20, seed=3).compute(prob, output=out)
+    with h5py.File(out) as f:
+        for name, ds in f["setup"].items():
+            assert ds.attrs["description"] != name, name
+        assert f["setup/T"].attrs["units"] == "F0"
+        assert f["setup/s0"].attrs["units"] == "F0"

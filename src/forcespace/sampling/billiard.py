@@ -353,6 +353,7 @@ class BilliardFrameWalk(FrameWalk):
     FrameWalk`): ``thin`` trajectories of chain i % chains between its samples."""
 
     sampler = "billiard"
+    SETUP_DESCRIPTION = SETUP_DESCRIPTION
     STATE = ("w", "rng", "slack", "counts")
 
     def default_params(self, options: dict) -> dict:

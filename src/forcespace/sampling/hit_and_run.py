@@ -200,11 +200,21 @@ def check_options(n, chains=None, thin=None, burn_in=None, direction=None,
                          got=direction)
 
 
+SETUP_DESCRIPTION = {
+    "x_centre": ("F0", "centre of the rounding ellipsoid of S (origin of w)"),
+    "T": ("F0", "x = x_centre + T w: affine frame x frozen rounding (params: 'rounding')"),
+    "H": ("1", "non-implicit inequalities H w <= s0"),
+    "s0": ("F0", "slack of the inequalities at the centre"),
+    "free_rows": ("1", "rows of problem.inequalities() kept"),
+    "mve_axis_ratio": ("1", "axis ratio of the MVE in each rounding pass (last ~1: rounded)")}
+
+
 class HitAndRunFrameWalk(FrameWalk):
     """Hit-and-run in the rounded frame (:class:`~forcespace.sampling.frame.FrameWalk`):
     ``thin`` steps of chain i % chains between its samples."""
 
     sampler = "hit-and-run"
+    SETUP_DESCRIPTION = SETUP_DESCRIPTION
 
     def default_params(self, options: dict) -> dict:
         return default_params(self.d, self.H0.shape[0], **options)
@@ -246,15 +256,6 @@ class HitAndRunFrameWalk(FrameWalk):
 
     def state_attrs(self) -> dict:
         return {"steps_per_sample": self.params["thin"]}
-
-
-SETUP_DESCRIPTION = {
-    "x_centre": ("F0", "centre of the rounding ellipsoid of S (origin of w)"),
-    "T": ("F0", "x = x_centre + T w: affine frame x frozen rounding (params: 'rounding')"),
-    "H": ("1", "non-implicit inequalities H w <= s0"),
-    "s0": ("F0", "slack of the inequalities at the centre"),
-    "free_rows": ("1", "rows of problem.inequalities() kept"),
-    "mve_axis_ratio": ("1", "axis ratio of the MVE in each rounding pass (last ~1: rounded)")}
 
 
 class HitAndRun(FrameSampler):
