@@ -15,6 +15,7 @@ from ..errors import InputError, NumericalError
 from ..model.radii import draw_radii
 from ..model.setup import Boundary, Setup
 from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP
+from .certificate import CertificateSettings
 from .records import Box, StepSettings, SweepSettings
 
 
@@ -161,6 +162,14 @@ def step_settings(setup: Setup, v0: float = 1.0) -> tuple[StepSettings, SweepSet
         overlap_correction=float(s.overlap_correction), overlap_slop=float(s.overlap_slop),
         relax_until=-1 if fallback == 0.5 else int(fallback * sweeps))
     return step, sweep
+
+
+def certificate_settings(setup: Setup, v0: float = 1.0) -> CertificateSettings:
+    """When a jam of the setup is ended by a static certificate; v0 [R/T]:
+    :func:`velocity_scale` (the unit of ``jamming.certificate_speed``)."""
+    j = setup.jamming
+    return CertificateSettings(speed=float(j.certificate_speed * v0),
+                               gap_tol=float(j.contact_gap_tol))
 
 
 def check_setup(setup: Setup) -> None:

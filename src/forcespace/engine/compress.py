@@ -24,7 +24,8 @@ from ..io.checkpoint import read_checkpoint, write_checkpoint
 from ..model.setup import Setup
 from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP
 from ..progress import progress
-from .bodies import Bodies, kernel_box, step_settings, velocity_scale
+from .bodies import Bodies, certificate_settings, kernel_box, step_settings, velocity_scale
+from .certificate import CertificateSettings, certify, frozen_system
 from .interrupts import InterruptFlag
 from .records import ContactForces, StepStats
 from .step import run_steps
@@ -47,8 +48,11 @@ class Run:
     jammed run is sent back to compressing, see :func:`unsettle`); retries: how many
     times a failed static solve sent it back (the protocol's count, kept across a
     resume); seconds_before: wall seconds the run took in earlier processes (compression
-    and static solves; resumed from a checkpoint; 0 for a fresh run); started: this
-    process's perf_counter() at the start (not saved).
+    and static solves; resumed from a checkpoint; 0 for a fresh run); ended: what ended
+    the compression ("rest": the rest criterion, "certificate": a static certificate,
+    "" while compressing); certificates: the certificates tried and
+    certificate_seconds their CPU seconds (this process); started: this process's
+    perf_counter() at the start (not saved).
     """
 
     steps: int = 0
@@ -60,6 +64,9 @@ class Run:
     rest_after: int = 0
     retries: int = 0
     seconds_before: float = 0.0
+    ended: str = ""
+    certificates: int = 0
+    certificate_seconds: float = 0.0
     started: float = field(default_factory=time.perf_counter, compare=False, repr=False)
 
     def seconds(self) -> float:
@@ -74,7 +81,7 @@ def snapshot(bodies: Bodies, run: Run) -> dict:
                  rt=run.contacts.rt.copy(), log=np.array(run.log, float).reshape(-1, 5),
                  steps=run.steps, phase=run.phase, v_first=run.v_ref,
                  rest_after=run.rest_after, retries=run.retries, seconds=run.seconds(),
-                 stats=run.stats._asdict())
+                 ended=run.ended, stats=run.stats._asdict())
     return state
 
 
@@ -100,7 +107,7 @@ def restore(path, setup: Setup, bodies: Bodies) -> Run | None:
                                       state["rt"]),
                v_ref=state["v_first"], phase=state["phase"],
                rest_after=state.get("rest_after", 0), retries=state.get("retries", 0),
-               seconds_before=state.get("seconds", 0.0))
+               seconds_before=state.get("seconds", 0.0), ended=state.get("ended", ""))
 
 
 class JamProgress:
@@ -175,6 +182,7 @@ def unsettle(setup: Setup, run: Run, windows: int) -> None:
     next ``windows`` windows (in place): for a rest state whose static solve failed,
     i.e. a configuration that only looked at rest (a slow creep paused for a window)."""
     run.phase = "compressing"
+    run.ended = ""
     run.rest_after = run.steps + windows * setup.jamming.window
 
 
@@ -203,10 +211,11 @@ def compress(setup: Setup, bodies: Bodies, seed: int, show_progress=True, log=No
     v_tol = setup.jamming.velocity_tol * v0
     run = run if run is not None else start_run(setup, bodies, checkpoint)
     settings = (kernel_box(setup.boundary), *step_settings(setup, v0))
+    ends = (v_tol, certificate_settings(setup, v0))
     t0 = time.perf_counter()
     bar = JamProgress(v_tol, show_progress, run, setup.jamming.max_steps)
     try:
-        _windows(setup, bodies, run, seed, settings, v_tol, bar, checkpoint, interrupt)
+        _windows(setup, bodies, run, seed, settings, ends, bar, checkpoint, interrupt)
     finally:
         bar.close()
     if log is not None:
@@ -218,12 +227,29 @@ def compress(setup: Setup, bodies: Bodies, seed: int, show_progress=True, log=No
             "normal_updates": int(s.normal_updates),
             "tangential_updates": int(s.tangential_updates),
             "steps_at_sweep_cap": int(s.steps_at_sweep_cap),
-            "compress_seconds": time.perf_counter() - t0}
+            "compress_seconds": time.perf_counter() - t0, "jam_end": run.ended,
+            "certificates_tried": run.certificates,
+            "certificate_cpu_seconds": run.certificate_seconds}
 
 
-def _windows(setup: Setup, bodies, run: Run, seed, settings, v_tol, bar, checkpoint,
+def certified(setup: Setup, bodies: Bodies, run: Run, settings: CertificateSettings) -> bool:
+    """Whether the bodies' configuration admits a static network (an interior-point
+    certificate on its closed contacts, :mod:`forcespace.engine.certificate`)."""
+    t0 = time.process_time()
+    _c, _image, system, rn0, rt0 = frozen_system(
+        bodies, kernel_box(setup.boundary), setup.physics.mu, setup.physics.plate_mu,
+        settings.gap_tol, run.contacts)
+    cert = certify(system, rn0, rt0, settings.tol)
+    run.certificates += 1
+    run.certificate_seconds += time.process_time() - t0
+    return cert.status == "static"
+
+
+def _windows(setup: Setup, bodies, run: Run, seed, settings, ends, bar, checkpoint,
              interrupt):
-    """The window loop of :func:`compress` (until jammed; run and bodies in place)."""
+    """The window loop of :func:`compress` (until jammed; run and bodies in place).
+    ``ends``: (v_tol [R/T] of the rest criterion, CertificateSettings)."""
+    v_tol, cert = ends
     window = setup.jamming.window
     window_time = window * setup.solver.dt
     last_save = time.perf_counter()
@@ -251,7 +277,13 @@ def _windows(setup: Setup, bodies, run: Run, seed, settings, v_tol, bar, checkpo
                         st.max_rel_change))
         if (run.steps >= run.rest_after and v_mean <= v_tol
                 and load_carried(setup, bodies, run.contacts)):
-            run.phase = "jammed"
+            run.phase, run.ended = "jammed", "rest"
+            save(snapshot(bodies, run))
+        elif (run.steps >= run.rest_after and v_mean <= cert.speed
+              and (run.steps // window) % cert.every == 0
+              and load_carried(setup, bodies, run.contacts)
+              and certified(setup, bodies, run, cert)):
+            run.phase, run.ended = "jammed", "certificate"
             save(snapshot(bodies, run))
         elif checkpoint and time.perf_counter() - last_save > CHECKPOINT_SECONDS:
             save(snapshot(bodies, run))

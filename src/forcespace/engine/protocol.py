@@ -41,7 +41,8 @@ from .bodies import (Bodies, check_setup, loose_start,  # noqa: F401 (API)
                      make_bodies, random_radii, row_order)
 from .compress import compress, start_run, unsettle
 from .interrupts import deferred_sigint
-from .static import restart_from_exact_point, static_solve
+from .static import (certificate_stats, certified_solve, restart_from_exact_point,
+                     static_solve)
 from ..streams import placement_rng
 
 __all__ = ["Bodies", "Setup", "build_packing", "compress", "jam", "loose_start",
@@ -79,7 +80,7 @@ def build_packing(scene: Scene | Setup, show_progress=True, checkpoint=None) -> 
         run = start_run(setup, bodies, checkpoint)
         meta = compress(setup, bodies, seed, show_progress, checkpoint=checkpoint,
                         interrupt=interrupt, run=run)
-        packing, static = static_solve(setup, bodies, seed, show_progress, interrupt)
+        packing, static = static_network(setup, bodies, seed, show_progress, interrupt)
         # a resumed run brings its retries and earlier compression time (checkpoint)
         seconds = run.seconds_before + meta["compress_seconds"]
         while not static["static_residual"] <= tol and run.retries < config.STATIC_RETRIES:
@@ -88,7 +89,7 @@ def build_packing(scene: Scene | Setup, show_progress=True, checkpoint=None) -> 
             meta = compress(setup, bodies, seed, show_progress, checkpoint=checkpoint,
                             interrupt=interrupt, run=run)
             seconds += meta["compress_seconds"]
-            packing, static = static_solve(setup, bodies, seed, show_progress, interrupt)
+            packing, static = static_network(setup, bodies, seed, show_progress, interrupt)
         restart = ""
         if not static["static_residual"] <= tol:
             stalled = static["static_residual"]
@@ -119,6 +120,23 @@ def build_packing(scene: Scene | Setup, show_progress=True, checkpoint=None) -> 
     if checkpoint:
         remove_checkpoint(checkpoint)
     return packing
+
+
+def static_network(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
+                   interrupt=None):
+    """The static network of a jammed configuration as the setup asks: by its
+    certificate (:func:`~forcespace.engine.static.certified_solve`) when
+    ``jamming.certificate_speed`` > 0 and the configuration admits one, else by
+    :func:`~forcespace.engine.static.static_solve` from the dynamics' forces. Returns
+    (packing, statistics) as static_solve; ``static_network`` says which was used."""
+    cert = None
+    if setup.jamming.certificate_speed > 0:
+        done, cert = certified_solve(setup, bodies, seed, show_progress, interrupt)
+        if done is not None:
+            return done[0], dict(done[1], static_network="certificate")
+    packing, stats = static_solve(setup, bodies, seed, show_progress, interrupt)
+    return packing, dict(stats, static_network="sweeps",
+                         **(certificate_stats(cert) if cert is not None else {}))
 
 
 def check_overlap(setup: Setup, packing: Packing) -> None:

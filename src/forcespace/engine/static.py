@@ -18,7 +18,8 @@ from ..model.setup import Setup
 from ..model.walls import (N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, kernel_body_index,
                            packing_body_code)
 from ..progress import progress
-from .bodies import Bodies, kernel_box
+from .bodies import Bodies, certificate_settings, kernel_box
+from .certificate import Certificate, certify, frozen_system, in_cones
 from .contacts import detect_contacts
 from .frozen import FrozenContacts, relax
 from .interrupts import InterruptFlag
@@ -110,6 +111,40 @@ def static_solve(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
     stats = {"static_sweeps": res.sweeps, "static_tangential_updates": res.tangential_updates,
              "static_seconds": time.perf_counter() - t0, "static_residual": res.violation}
     return packing_of(rn, rt), stats
+
+
+def certified_solve(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
+                    interrupt: InterruptFlag | None = None):
+    """The static network of the frozen configuration by its certificate
+    (:mod:`forcespace.engine.certificate`): the admissible network nearest to the
+    dynamics' last forces, found by an interior-point solver on the contacts with gap at
+    most ``jamming.contact_gap_tol``, clipped into the Coulomb cones and polished by
+    :func:`static_solve` from there (an exact static network is a fixed point of its
+    sweeps, so the polish only removes the solver's round-off). Returns
+    ((packing, statistics) or None when the configuration is not static, the
+    :class:`~forcespace.engine.certificate.Certificate`).
+    """
+    settings = certificate_settings(setup)
+    c, _image, system, rn0, rt0 = frozen_system(
+        bodies, kernel_box(setup.boundary), setup.physics.mu, setup.physics.plate_mu,
+        settings.gap_tol, bodies.contacts)
+    cert = certify(system, rn0, rt0, settings.tol)
+    if cert.status != "static":
+        return None, cert
+    dynamics = bodies.contacts
+    bodies.contacts = ContactForces(c.keys, *in_cones(cert.rn, cert.rt, c.mu))
+    try:
+        packing, stats = static_solve(setup, bodies, seed, show_progress, interrupt)
+    finally:
+        bodies.contacts = dynamics
+    stats.update(certificate_stats(cert))
+    return (packing, stats), cert
+
+
+def certificate_stats(cert: Certificate) -> dict:
+    """The packing metadata of a certificate (``certificate_*``)."""
+    return {"certificate_status": cert.status, "certificate_iterations": cert.iterations,
+            "certificate_seconds": cert.seconds, "certificate_residual": cert.residual}
 
 
 def restart_from_exact_point(setup: Setup, bodies: Bodies, packing: Packing, seed: int,

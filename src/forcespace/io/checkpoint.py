@@ -44,9 +44,10 @@ def write_checkpoint(path, identity: str, state: dict) -> None:
     arrays of BODY_FIELDS and CONTACT_FIELDS, ``log`` (k, 5), and scalars ``steps``,
     ``phase`` (str), ``v_first``, ``rest_after`` (the step before which the rest
     criterion is not tested), ``retries`` (static solves that sent the run back),
-    ``seconds`` (wall seconds of the run so far) and ``stats`` (a dict of named
-    numbers). rest_after, retries and seconds read as 0 when absent, as in files
-    written before they existed.
+    ``seconds`` (wall seconds of the run so far), ``ended`` (what ended a jammed run:
+    "rest" or "certificate") and ``stats`` (a dict of named numbers). rest_after,
+    retries and seconds read as 0 and ended as "" when absent, as in files written
+    before they existed.
     """
     with atomic_h5(path, {"file_kind": KIND}) as f:
         f.attrs["scene"] = identity
@@ -56,6 +57,7 @@ def write_checkpoint(path, identity: str, state: dict) -> None:
         f.attrs["rest_after"] = int(state.get("rest_after", 0))
         f.attrs["retries"] = int(state.get("retries", 0))
         f.attrs["seconds"] = float(state.get("seconds", 0.0))
+        f.attrs["ended"] = str(state.get("ended", ""))
         for k, v in state["stats"].items():
             f.attrs[f"stats.{k}"] = v
         g = f.create_group("bodies")
@@ -92,6 +94,7 @@ def read_checkpoint(path, identity: str) -> dict | None:
             out["rest_after"] = int(f.attrs.get("rest_after", 0))
             out["retries"] = int(f.attrs.get("retries", 0))
             out["seconds"] = float(f.attrs.get("seconds", 0.0))
+            out["ended"] = str(f.attrs.get("ended", ""))
             out["stats"] = {k[6:]: f.attrs[k].item() for k in f.attrs if k.startswith("stats.")}
         except (KeyError, ValueError, TypeError, OSError) as exc:
             raise InputError(path, "(checkpoint)", f"is incomplete or corrupt ({exc}); delete "

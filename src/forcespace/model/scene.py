@@ -298,6 +298,11 @@ SCHEMA: dict[str, Key] = {
                                 "largest mean speed of a loaded disk or the plate over a "
                                 "window, relative to sqrt(F0 rbar/mbar) (F0: top-plate load "
                                 "or mean disk weight), below which the packing is at rest"),
+    "jamming.certificate_speed": Key(float, 0.0, _nonneg("0: never"),
+                                     "a window whose mean speed (as jamming.velocity_tol) is "
+                                     "at most this ends the jam if its configuration admits a "
+                                     "static network (an exact interior-point certificate); "
+                                     "the static network is then found the same way"),
     "jamming.window": Key(int, 200, _int_at_least(1), "steps both must stay below tolerance"),
     "jamming.max_steps": Key(int, 400000, _int_at_least(1), "give up after this many steps"),
     "jamming.static_tolerance": Key(float, 1e-10, Range(0.0, 1.0, True, True),
@@ -379,8 +384,9 @@ class Scene:
         packing's height follows by itself); with a load-controlled top plate its
         load and mass scale by f too (same pressure, same plate mass per width), and
         since time and speed are measured in units built from the plate load,
-        ``solver.dt`` scales by sqrt(f) and ``jamming.velocity_tol`` by 1/sqrt(f)
-        (the same physical step and rest criterion).
+        ``solver.dt`` scales by sqrt(f) and ``jamming.velocity_tol`` (and a non-zero
+        ``jamming.certificate_speed``) by 1/sqrt(f) (the same physical step and rest
+        criterion).
         Returns (scene, one-line description of what was scaled)."""
         msg = SCHEMA["disks.n"].check(n, self.values) if _type_ok(n, int) else \
             "must be an integer"
@@ -397,6 +403,10 @@ class Scene:
                         "plates.top_mass": self["plates.top_mass"] * f,
                         "solver.dt": self["solver.dt"] * math.sqrt(f),
                         "jamming.velocity_tol": self["jamming.velocity_tol"] / math.sqrt(f)})
+            if self["jamming.certificate_speed"] > 0:     # a speed like velocity_tol
+                keys.append("jamming.certificate_speed")
+                new["jamming.certificate_speed"] = (self["jamming.certificate_speed"]
+                                                    / math.sqrt(f))
         sc = self.with_overrides(**new)
         what = (f"n {n0} -> {n} (f = sqrt({n}/{n0}) = {f:.4g}): "
                 + ", ".join(f"{k} {self[k]:g} -> {sc[k]:.6g}" for k in keys))

@@ -117,6 +117,7 @@ class Jamming:
     static_max_sweeps: int
     contact_gap_tol: float
     max_overlap: float
+    certificate_speed: float
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,190 @@
+"""The static certificate of a jam: does the frozen configuration admit a static network?
+
+While the disks still creep, the time stepper's forces only approximate a static
+network. Here the geometry is frozen and the question asked exactly: is there a contact
+force network on the current closed contacts (gap <= a tolerance, taken as closed) that
+balances every movable body under its loads and keeps every contact inside its Coulomb
+cone? Equations (the engine's convention, :mod:`forcespace.engine.records`): for every
+body direction with a non-zero inverse mass one row -- the x and y force and, for a
+rotating disk, the torque divided by the radius -- ``A f = -F_ext``, unknowns
+``f[2k] = rn_k``, ``f[2k+1] = rt_k`` [sigma]; Coulomb ``|rt_k| <= mu_k rn_k`` (two
+linear rows; ``rt_k = 0`` when mu_k = 0). The answer comes from an interior-point
+solver (Clarabel, sparse LDL^T): the point of the set nearest to the dynamics' forces
+(a convex QP), or a certificate of infeasibility (Farkas: no such network exists).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import scipy.sparse as sp
+
+from .contacts import detect_contacts
+from .records import Box, ContactForces, Contacts
+from .step import contact_list, warm_start
+
+
+class CertificateSettings(NamedTuple):
+    """When and how a jam is ended by a static certificate.
+
+    speed [R/T]: a certificate is tried after a window whose mean speed (the rest
+    criterion's measure) is at most this (0: never); gap_tol [R]: pairs closer than
+    this are closed contacts; tol [1]: the interior-point solver's relative
+    feasibility and gap tolerance; every [windows]: windows between two attempts.
+    """
+
+    speed: float
+    gap_tol: float
+    tol: float = 1e-10
+    every: int = 1
+
+
+class StaticSystem(NamedTuple):
+    """The equilibrium equations of a frozen contact network.
+
+    A (rows, 2 Nc) CSR: one row per movable body direction (x force, y force, torque /
+    radius), columns (rn_k, rt_k) [sigma] per contact k; b (rows,) [sigma]: minus the
+    external loads of those rows; mu (Nc,) Coulomb coefficients; body (rows,) and
+    direction (rows,) (0 x, 1 y, 2 torque) of each row.
+    """
+
+    A: sp.csr_matrix
+    b: np.ndarray
+    mu: np.ndarray
+    body: np.ndarray
+    direction: np.ndarray
+
+
+def static_system(c: Contacts, inv_mx, inv_my, inv_i, fy_ext, radius) -> StaticSystem:
+    """The equations of the contacts ``c`` (gaps ignored: every listed contact closed).
+
+    inv_mx, inv_my, inv_i, fy_ext (nb,): inverse masses [1/(rho R^2)], [1/(rho R^4)] and
+    the external force along y [sigma] of every body; radius (nb,) [R] (0 for walls: a
+    body's torque row is divided by its radius). A direction gets a row where its inverse
+    mass is non-zero (walls: none; the load-controlled plate: y).
+    """
+    nb = inv_mx.shape[0]
+    movable = np.stack([inv_mx > 0, inv_my > 0, (inv_i > 0) & (radius > 0)], axis=1)
+    row_of = -np.ones((nb, 3), np.int64)
+    body, direction = np.nonzero(movable)
+    row_of[body, direction] = np.arange(body.size)
+    nc = c.a.shape[0]
+    nx, ny = c.nx, c.ny
+    rows, cols, vals = [], [], []
+    for ends, sign, lever in ((c.b, 1.0, c.rb), (c.a, -1.0, c.ra)):
+        safe_r = np.where(radius[ends] > 0, radius[ends], 1.0)
+        # (row direction, column offset, value): fn along n, ft along t = (-ny, nx),
+        # torque -lever*ft on both ends (divided by the body's radius)
+        for d, off, val in ((0, 0, sign * nx), (1, 0, sign * ny), (0, 1, -sign * ny),
+                            (1, 1, sign * nx), (2, 1, -lever / safe_r)):
+            r = row_of[ends, d]
+            keep = (r >= 0) & (val != 0.0)
+            rows.append(r[keep])
+            cols.append(2 * np.flatnonzero(keep) + off)
+            vals.append(val[keep])
+    A = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(body.size, 2 * nc))
+    A.sum_duplicates()
+    b = np.where(direction == 1, -fy_ext[body], 0.0)
+    return StaticSystem(A, b, np.asarray(c.mu, float), body, direction)
+
+
+class Certificate(NamedTuple):
+    """What :func:`certify` found.
+
+    status: "static" (a network exists; ``rn, rt`` (Nc,) [sigma] is the point nearest to
+    the start), "not static" (primal infeasibility certificate: no network exists) or
+    "undecided" (the solver stopped otherwise); residual: largest equation residual /
+    mean |rn|; iterations: interior-point iterations; seconds: solver CPU seconds.
+    """
+
+    status: str
+    rn: np.ndarray | None
+    rt: np.ndarray | None
+    residual: float
+    iterations: int
+    seconds: float
+
+
+def certify(system: StaticSystem, rn0, rt0, tol: float = 1e-10,
+            max_iter: int = 200) -> Certificate:
+    """Decide whether ``system`` admits a static network, by Clarabel.
+
+    Solves min 1/2 |f - f0|^2 over {A f = b, |rt| <= mu rn} (f0 = (rn0, rt0), the
+    dynamics' forces [sigma]), in units of the mean load so that ``tol`` (Clarabel's
+    feasibility and gap tolerances) is relative.
+    """
+    import time
+
+    import clarabel
+
+    A, b, mu = system.A, system.b, system.mu
+    nc = mu.shape[0]
+    scale = float(np.abs(b).max(initial=0.0))
+    f0 = np.empty(2 * nc)
+    f0[0::2], f0[1::2] = rn0, rt0
+    if scale == 0.0:
+        scale = max(float(np.abs(f0).max(initial=0.0)), 1.0)
+    q = -f0 / scale
+    P = sp.identity(2 * nc, format="csc")
+    k = np.arange(nc)
+    fr = mu > 0
+    kf, k0 = k[fr], k[~fr]
+    # cone rows, s = h - G f >= 0: ft - mu fn <= 0, -ft - mu fn <= 0 (friction);
+    # -fn <= 0 (no friction); and ft = 0 as extra zero rows
+    G = sp.csr_matrix((np.concatenate([-mu[fr], np.ones(kf.size), -mu[fr], -np.ones(kf.size),
+                                       -np.ones(k0.size)]),
+                       (np.concatenate([np.arange(kf.size)] * 2
+                                       + [kf.size + np.arange(kf.size)] * 2
+                                       + [2 * kf.size + np.arange(k0.size)]),
+                        np.concatenate([2 * kf, 2 * kf + 1, 2 * kf, 2 * kf + 1, 2 * k0]))),
+                      shape=(2 * kf.size + k0.size, 2 * nc))
+    Z = sp.csr_matrix((np.ones(k0.size), (np.arange(k0.size), 2 * k0 + 1)),
+                      shape=(k0.size, 2 * nc))
+    M = sp.vstack([A, Z, G]).tocsc()
+    h = np.concatenate([b / scale, np.zeros(k0.size), np.zeros(G.shape[0])])
+    cones = [clarabel.ZeroConeT(A.shape[0] + k0.size), clarabel.NonnegativeConeT(G.shape[0])]
+    s = clarabel.DefaultSettings()
+    s.verbose = False
+    s.max_iter = max_iter
+    s.tol_feas = s.tol_gap_abs = s.tol_gap_rel = tol
+    s.max_threads = 1
+    t0 = time.process_time()
+    sol = clarabel.DefaultSolver(P, q, M, h, cones, s).solve()
+    seconds = time.process_time() - t0
+    status = str(sol.status)
+    if status in ("Solved", "AlmostSolved"):
+        f = np.asarray(sol.x) * scale
+        res = float(np.abs(A @ f - b).max(initial=0.0))
+        mean = float(np.abs(f[0::2]).mean()) if nc else 0.0
+        return Certificate("static", f[0::2].copy(), f[1::2].copy(),
+                           res / mean if mean > 0 else res, sol.iterations, seconds)
+    if status in ("PrimalInfeasible", "AlmostPrimalInfeasible"):
+        return Certificate("not static", None, None, np.inf, sol.iterations, seconds)
+    return Certificate("undecided", None, None, np.inf, sol.iterations, seconds)
+
+
+def frozen_system(bodies, box: Box, mu_disk: float, mu_wall: float, gap_tol: float,
+                  forces: ContactForces | None):
+    """The closed contacts of the bodies' current configuration (gap <= ``gap_tol`` [R])
+    and their equations: (Contacts, images (Nc,), StaticSystem, rn0, rt0), rn0, rt0 (Nc,)
+    [sigma] the ``forces`` of the dynamics on them (0 where none). ``bodies``: the fields
+    of :class:`~forcespace.engine.records.BodyArrays`."""
+    ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r, box, gap_tol)
+    c = contact_list(ints, floats, bodies.r, mu_disk, mu_wall)
+    if forces is None:
+        rn0, rt0 = np.zeros(c.a.shape[0]), np.zeros(c.a.shape[0])
+    else:
+        rn0, rt0 = warm_start(c.keys, forces)
+    radius = np.concatenate([bodies.r, np.zeros(bodies.x.shape[0] - bodies.r.shape[0])])
+    system = static_system(c, bodies.inv_mx, bodies.inv_my, bodies.inv_i, bodies.fy_ext,
+                           radius)
+    return c, ints[:, 2].copy(), system, rn0, rt0
+
+
+def in_cones(rn, rt, mu):
+    """The forces clipped into their Coulomb cones (rn >= 0, |rt| <= mu rn): an
+    interior-point solution meets them only to its tolerance."""
+    rn = np.maximum(rn, 0.0)
+    lim = mu * rn
+    return rn, np.clip(rt, -lim, lim)

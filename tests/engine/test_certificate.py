@@ -1,0 +1,114 @@
+"""The static certificate (forcespace.engine.certificate): hand-derived statics, Farkas
+infeasibility, agreement with the independent StaticsProblem, and the protocol's use."""
+import numpy as np
+import pytest
+
+from engine_cases import free_bodies
+from forcespace.engine.certificate import certify, frozen_system, in_cones
+from forcespace.engine.protocol import build_packing
+from forcespace.engine.records import Box
+from forcespace.model.scene import load_scene
+from forcespace.model.walls import N_WALL_SLOTS
+
+QUICK = "quick"
+SIDES = Box(2.0, False, has_bottom=True, has_top=False, has_sides=True)
+
+
+def test_a_disk_on_the_floor_carries_its_weight():
+    b = free_bodies([5.0], [1.0], [1.0], gravity=2.0)
+    c, _img, system, rn0, rt0 = frozen_system(b, Box(10.0, False, True, False, True), 0.0,
+                                              0.0, 1e-6, None)
+    cert = certify(system, rn0, rt0)
+    weight = 2.0 * np.pi
+    assert cert.status == "static"
+    assert c.a.size == 1 and cert.rn[0] == pytest.approx(weight, rel=1e-9)
+    assert cert.residual <= 1e-10
+
+
+def test_a_disk_between_two_walls_hangs_on_friction_only():
+    # a disk of radius 1 wedged between side walls 2 apart, no floor under it: its
+    # weight W can only be carried by the tangential forces, W/2 each, and the nearest
+    # network to zero forces has the smallest normal force Coulomb allows, W / (2 mu)
+    b = free_bodies([1.0], [5.0], [1.0], gravity=1.0)
+    weight = np.pi
+    for mu, want in ((0.0, "not static"), (0.5, "static")):
+        c, _img, system, rn0, rt0 = frozen_system(b, SIDES, mu, mu, 1e-6, None)
+        cert = certify(system, rn0, rt0)
+        assert c.a.size == 2 and cert.status == want
+    assert np.allclose(cert.rn, weight / (2 * 0.5), rtol=1e-7)
+    assert np.allclose(np.abs(cert.rt), weight / 2, rtol=1e-7)
+    rn, rt = in_cones(cert.rn, cert.rt, c.mu)
+    assert (np.abs(rt) <= c.mu * rn).all()
+
+
+def test_a_disk_resting_off_centre_on_another_without_friction_is_not_static():
+    # the only contact force is along the normal, which is not vertical: the weight's
+    # component along the tangent is unbalanced (Farkas: the solver proves infeasibility)
+    b = free_bodies([5.0, 5.5], [1.0, 3.0], [1.0, 1.0], gravity=1.0, fixed=(0,))
+    b.x[1] = 5.0 + np.sqrt(4.0 - 2.0 ** 2 * 0.99)     # the upper disk touches off centre
+    b.y[1] = 1.0 + np.sqrt(4.0 - (b.x[1] - 5.0) ** 2)
+    _c, _img, system, rn0, rt0 = frozen_system(b, Box(10.0, False, False, False, False),
+                                               0.0, 0.0, 1e-6, None)
+    assert certify(system, rn0, rt0).status == "not static"
+
+
+def test_the_equations_agree_with_the_statics_problem_of_a_jammed_packing():
+    # an independent assembly (model.problem, through the packing's own residual):
+    # the certificate's network of a jammed packing balances every disk and the plate
+    scene = load_scene(QUICK).with_overrides(**{"physics.mu": 0.3, "disks.n": 30})
+    p = build_packing(scene, show_progress=False)
+    from forcespace.engine.protocol import start_bodies
+    from forcespace.model.setup import Setup
+    setup = Setup.from_scene(scene)
+    b = start_bodies(setup)
+    n = p.n_disks
+    b.x[:n], b.y[:n] = p.x, p.y
+    b.y[n + 1] = p.y_top
+    from forcespace.engine.bodies import kernel_box
+    c, _img, system, rn0, rt0 = frozen_system(b, kernel_box(setup.boundary), 0.3, 0.0, 1e-6,
+                                              None)
+    assert c.a.size == p.n_contacts
+    f = np.empty(2 * c.a.size)
+    order = np.argsort(c.keys)            # the packing lists contacts in key order too
+    f[0::2], f[1::2] = p.fn[order], p.ft[order]
+    assert np.abs(system.A @ f - system.b).max() <= 1e-9 * np.abs(p.fn).mean()
+    cert = certify(system, rn0, rt0)
+    assert cert.status == "static"
+    from dataclasses import replace
+    q = replace(p, fn=cert.rn[order], ft=cert.rt[order])
+    assert q.equilibrium_residual() <= 1e-9
+
+
+def test_a_certified_jam_says_how_it_ended_and_is_static():
+    scene = load_scene(QUICK).with_overrides(**{"physics.mu": 0.3,
+                                                "jamming.certificate_speed": 1e-2})
+    p = build_packing(scene, show_progress=False)
+    ref = build_packing(load_scene(QUICK).with_overrides(**{"physics.mu": 0.3}),
+                        show_progress=False)
+    assert p.meta["jam_end"] == "certificate" and ref.meta["jam_end"] == "rest"
+    assert p.meta["static_network"] == "certificate" and ref.meta["static_network"] == "sweeps"
+    # the quick scene comes to rest abruptly: 2e-3 v0 one window, 5e-9 the next
+    assert p.meta["steps"] < ref.meta["steps"] and p.meta["certificates_tried"] >= 1
+    assert p.equilibrium_residual() <= scene["jamming.static_tolerance"]
+    assert (np.abs(p.ft) <= 0.3 * p.fn + 1e-15).all()
+    assert p.max_overlap() <= scene["jamming.max_overlap"]
+
+
+def test_a_certified_checkpoint_resumes_at_the_static_network_and_keeps_its_end(tmp_path):
+    from forcespace.engine import compress as compress_module
+    from forcespace.engine.protocol import start_bodies
+    from forcespace.io.checkpoint import read_checkpoint
+    scene = load_scene(QUICK).with_overrides(**{"physics.mu": 0.3, "disks.n": 20,
+                                                "jamming.certificate_speed": 1e-2})
+    fresh = build_packing(scene, show_progress=False)
+    ck = tmp_path / "c.h5"
+    from forcespace.model.setup import Setup
+    setup = Setup.from_scene(scene)
+    compress_module.compress(setup, start_bodies(setup), setup.seed, show_progress=False,
+                             checkpoint=ck)
+    state = read_checkpoint(ck, setup.identity)
+    assert state["phase"] == "jammed" and state["ended"] == fresh.meta["jam_end"]
+    resumed = build_packing(scene, show_progress=False, checkpoint=ck)
+    assert resumed.meta["jam_end"] == fresh.meta["jam_end"] == "certificate"
+    np.testing.assert_array_equal(resumed.fn, fresh.fn)
+    np.testing.assert_array_equal(resumed.ft, fresh.ft)
