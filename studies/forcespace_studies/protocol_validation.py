@@ -147,8 +147,13 @@ def run(sizes, seeds, jobs: int, path: Path, protocols=("reference", "candidate"
     return rows
 
 
-def table(rows, sizes, candidate: str = "candidate") -> str:
-    """Markdown table: reference against the rows labelled ``candidate``."""
+COSTS = (("cpu_s", "CPU s"), ("steps", "steps"), ("updates", "contact updates"))
+
+
+def table(rows, sizes, candidate: str = "candidate", quantities=None) -> str:
+    """Markdown table: reference against the rows labelled ``candidate``; ``quantities``:
+    ((row key, label), ...) (default: QUANTITIES and COSTS; keys ending in cpu_s, steps
+    or updates are printed to 4 significant digits, a row without the key is skipped)."""
     from scipy import stats
     out = ["| n | quantity | reference (mean +- s.e.) | candidate (mean +- s.e.) | "
            "difference / s.e. | Welch t p | KS p |", "|---|---|---|---|---|---|---|"]
@@ -163,17 +168,16 @@ def table(rows, sizes, candidate: str = "candidate") -> str:
         new = [r for r in new if "error" not in r]
         if len(ref) < 2 or len(new) < 2:
             continue
-        for key, label in QUANTITIES + (("cpu_s", "CPU s"), ("steps", "steps"),
-                                        ("updates", "contact updates")):
-            a = np.array([r[key] for r in ref if r[key] is not None], float)
-            b = np.array([r[key] for r in new if r[key] is not None], float)
+        for key, label in quantities or QUANTITIES + COSTS:
+            a = np.array([r[key] for r in ref if r.get(key) is not None], float)
+            b = np.array([r[key] for r in new if r.get(key) is not None], float)
             if a.size < 2 or b.size < 2:
                 continue
             sa, sb = a.std(ddof=1) / np.sqrt(a.size), b.std(ddof=1) / np.sqrt(b.size)
             t = stats.ttest_ind(a, b, equal_var=False).pvalue
             ks = stats.ks_2samp(a, b).pvalue
             z = (b.mean() - a.mean()) / math.hypot(sa, sb) if math.hypot(sa, sb) else 0.0
-            fmt = ".4g" if key in ("cpu_s", "steps", "updates") else ".4f"
+            fmt = ".4g" if key.endswith(("cpu_s", "steps", "updates")) else ".4f"
             out.append(f"| {n} ({a.size}+{b.size} seeds) | {label} | {a.mean():{fmt}} +- "
                        f"{sa:{fmt}} | {b.mean():{fmt}} +- {sb:{fmt}} | {z:+.2f} | {t:.3f} | "
                        f"{ks:.3f} |")

@@ -106,12 +106,34 @@ class Certificate(NamedTuple):
     seconds: float
 
 
-def certify(system: StaticSystem, rn0, rt0, tol: float = 1e-10,
-            max_iter: int = 200) -> Certificate:
+def cone_rows(mu):
+    """The Coulomb conditions of Nc contacts as rows over f = (rn_k, rt_k): (Z, G), Z f = 0
+    and G f <= 0, sparse with 2 Nc columns. mu (Nc,): a frictionless contact gets rt = 0
+    and -rn <= 0, a frictional one rt - mu rn <= 0 and -rt - mu rn <= 0."""
+    nc = mu.shape[0]
+    k = np.arange(nc)
+    kf, k0 = k[mu > 0], k[mu == 0]
+    z = np.arange(k0.size)
+    Z = sp.csr_matrix((np.ones(k0.size), (z, 2 * k0 + 1)), shape=(k0.size, 2 * nc))
+    m, r = kf.size, np.arange(kf.size)
+    G = sp.csr_matrix((np.concatenate([-mu[kf], np.ones(m), -mu[kf], -np.ones(m),
+                                       -np.ones(k0.size)]),
+                       (np.concatenate([r, r, m + r, m + r, 2 * m + z]),
+                        np.concatenate([2 * kf, 2 * kf + 1, 2 * kf, 2 * kf + 1, 2 * k0]))),
+                      shape=(2 * m + k0.size, 2 * nc))
+    return Z, G
+
+
+def certify(system: StaticSystem, rn0, rt0, tol: float = 1e-10, max_iter: int = 200,
+            norm: str = "l2") -> Certificate:
     """Decide whether ``system`` admits a static network, by Clarabel.
 
-    Solves min 1/2 |f - f0|^2 over {A f = b, |rt| <= mu rn} (f0 = (rn0, rt0), the
-    dynamics' forces [sigma]), in units of the mean load so that ``tol`` (Clarabel's
+    Finds the network f over {A f = b, Coulomb} nearest to f0 = (rn0, rt0) (the
+    dynamics' forces [sigma]; the Coulomb rows of :func:`cone_rows`): ``norm`` "l2" the Euclidean projection (a QP, the
+    cheaper existence test), "l1" the least total change sum |f - f0| (an LP: most
+    contacts keep the dynamics' force exactly, so its zero forces and its contacts at the
+    Coulomb limit stay so unless equilibrium needs them to change -- as the sweeps of
+    the static solve keep them). Units of the largest load, so ``tol`` (Clarabel's
     feasibility and gap tolerances) is relative.
     """
     import time
@@ -125,36 +147,35 @@ def certify(system: StaticSystem, rn0, rt0, tol: float = 1e-10,
     f0[0::2], f0[1::2] = rn0, rt0
     if scale == 0.0:
         scale = max(float(np.abs(f0).max(initial=0.0)), 1.0)
-    q = -f0 / scale
-    P = sp.identity(2 * nc, format="csc")
-    k = np.arange(nc)
-    fr = mu > 0
-    kf, k0 = k[fr], k[~fr]
-    # cone rows, s = h - G f >= 0: ft - mu fn <= 0, -ft - mu fn <= 0 (friction);
-    # -fn <= 0 (no friction); and ft = 0 as extra zero rows
-    G = sp.csr_matrix((np.concatenate([-mu[fr], np.ones(kf.size), -mu[fr], -np.ones(kf.size),
-                                       -np.ones(k0.size)]),
-                       (np.concatenate([np.arange(kf.size)] * 2
-                                       + [kf.size + np.arange(kf.size)] * 2
-                                       + [2 * kf.size + np.arange(k0.size)]),
-                        np.concatenate([2 * kf, 2 * kf + 1, 2 * kf, 2 * kf + 1, 2 * k0]))),
-                      shape=(2 * kf.size + k0.size, 2 * nc))
-    Z = sp.csr_matrix((np.ones(k0.size), (np.arange(k0.size), 2 * k0 + 1)),
-                      shape=(k0.size, 2 * nc))
-    M = sp.vstack([A, Z, G]).tocsc()
-    h = np.concatenate([b / scale, np.zeros(k0.size), np.zeros(G.shape[0])])
-    cones = [clarabel.ZeroConeT(A.shape[0] + k0.size), clarabel.NonnegativeConeT(G.shape[0])]
+    Z, G = cone_rows(mu)
+    E = sp.vstack([A, Z])
+    rhs = np.concatenate([b / scale, np.zeros(Z.shape[0])])
+    if norm == "l1":      # x = (f, u, v), f - u + v = f0, u, v >= 0, minimise sum(u + v)
+        m2 = 2 * nc
+        eye = sp.identity(m2, format="csr")
+        E = sp.vstack([sp.hstack([E, sp.csr_matrix((E.shape[0], 2 * m2))]),
+                       sp.hstack([eye, -eye, eye])])
+        G = sp.vstack([sp.hstack([G, sp.csr_matrix((G.shape[0], 2 * m2))]),
+                       sp.hstack([sp.csr_matrix((2 * m2, m2)), -sp.identity(2 * m2)])])
+        rhs = np.concatenate([rhs, f0 / scale])
+        P = sp.csc_matrix((3 * m2, 3 * m2))
+        q = np.concatenate([np.zeros(m2), np.ones(2 * m2)])
+    else:
+        P, q = sp.identity(2 * nc, format="csc"), -f0 / scale
     s = clarabel.DefaultSettings()
     s.verbose = False
     s.max_iter = max_iter
     s.tol_feas = s.tol_gap_abs = s.tol_gap_rel = tol
     s.max_threads = 1
     t0 = time.process_time()
-    sol = clarabel.DefaultSolver(P, q, M, h, cones, s).solve()
+    sol = clarabel.DefaultSolver(P, q, sp.vstack([E, G]).tocsc(),
+                                 np.concatenate([rhs, np.zeros(G.shape[0])]),
+                                 [clarabel.ZeroConeT(E.shape[0]),
+                                  clarabel.NonnegativeConeT(G.shape[0])], s).solve()
     seconds = time.process_time() - t0
     status = str(sol.status)
     if status in ("Solved", "AlmostSolved"):
-        f = np.asarray(sol.x) * scale
+        f = np.asarray(sol.x)[:2 * nc] * scale
         res = float(np.abs(A @ f - b).max(initial=0.0))
         mean = float(np.abs(f[0::2]).mean()) if nc else 0.0
         return Certificate("static", f[0::2].copy(), f[1::2].copy(),
