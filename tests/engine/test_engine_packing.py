@@ -329,25 +329,24 @@ def test_a_resumed_jam_keeps_its_static_retries_and_its_earlier_time(tmp_path, m
 
 def test_a_static_solve_that_stalls_restarts_from_an_exact_point_of_S(monkeypatch):
     # NLGS from the dynamics' forces can stall on a configuration that is static (seen
-    # at mu = 1, n = 800): after the retries the feasibility LP of S gives a static
-    # network and NLGS restarts from it. Here the protocol's own solves always report a
-    # stall; the restart (the engine's real solve) starts from the LP's point (one LP,
-    # recorded) and the result is an exact static packing
-    from forcespace.engine import protocol
+    # at mu = 1, n = 800): after the retries the configuration's certificate (interior
+    # point) gives a static network and NLGS restarts from it. Here the protocol's own
+    # solves always report a stall; the restart (the engine's real solve) starts from the
+    # certificate's network (one solve, recorded) and the result is an exact static packing
+    from forcespace.engine import protocol, static
     from forcespace.model.problem import plate_problem
-    from forcespace.space import questions
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14, "physics.mu": 1.0})
-    real, lp = protocol.static_solve, questions.check_feasible
+    real, solver = protocol.static_solve, static.least_change_network
     points = []
 
-    def feasible(problem):
-        points.append(lp(problem))
+    def network(*args, **kw):
+        points.append(solver(*args, **kw))
         return points[-1]
 
     monkeypatch.setattr(protocol, "static_solve", reports_a_stall(real))
-    monkeypatch.setattr(questions, "check_feasible", feasible)
+    monkeypatch.setattr(static, "least_change_network", network)
     p = build_packing(scene, show_progress=False)
-    assert len(points) == 1 and points[0][0]        # one LP, and S is not empty
+    assert len(points) == 1 and points[0].status == "static"    # one solve, S not empty
     assert p.meta["static_retries"] == config.STATIC_RETRIES
     assert p.meta["static_restart"] == "exact point"
     assert p.meta["static_residual"] <= scene["jamming.static_tolerance"]
@@ -357,15 +356,16 @@ def test_a_static_solve_that_stalls_restarts_from_an_exact_point_of_S(monkeypatc
 
 
 def test_a_configuration_without_a_static_network_is_refused_after_the_restart(monkeypatch):
-    from forcespace.engine import protocol
+    from forcespace.engine import protocol, static
+    from forcespace.engine.certificate import Certificate
     from forcespace.errors import NumericalError
-    from forcespace.space import questions
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
     real = protocol.static_solve
 
     monkeypatch.setattr(protocol, "static_solve", reports_a_stall(real))
-    monkeypatch.setattr(questions, "check_feasible", lambda problem: (False, None, None))
-    with pytest.raises(NumericalError, match="the exact LP finds no static network"):
+    monkeypatch.setattr(static, "least_change_network",
+                        lambda *a, **k: Certificate("not static", None, None, np.inf, 5, 0.0))
+    with pytest.raises(NumericalError, match="finds no static network"):
         build_packing(scene, show_progress=False)
 
 

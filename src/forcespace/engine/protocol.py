@@ -13,8 +13,8 @@
    ``meta["static_retries"]``; a run resumed from its checkpoint keeps its count, and
    ``meta["compress_seconds"]`` and ``meta["wall_seconds"]`` include the time the run
    took in the processes before). A packing whose first static solve succeeds is
-   unchanged by this. If the last one fails too, the exact LP of S decides
-   (:func:`~forcespace.engine.static.restart_from_exact_point`): a static network
+   unchanged by this. If the last one fails too, the configuration's exact certificate
+   decides (:func:`~forcespace.engine.static.restart_from_exact_point`): a static network
    exists and NLGS restarts from it (``meta["static_restart"] = "exact point"``), or S
    is empty ("S empty"; the packing is refused below): NLGS from the dynamics' forces
    can stall on a configuration that is static. The cases behind both steps:
@@ -93,8 +93,7 @@ def build_packing(scene: Scene | Setup, show_progress=True, checkpoint=None) -> 
         restart = ""
         if not static["static_residual"] <= tol:
             stalled = static["static_residual"]
-            exact = restart_from_exact_point(setup, bodies, packing, seed, show_progress,
-                                             interrupt)
+            exact = restart_from_exact_point(setup, bodies, seed, show_progress, interrupt)
             restart = "S empty" if exact is None else "exact point"
             if exact is not None:
                 packing, static = exact
@@ -111,9 +110,9 @@ def build_packing(scene: Scene | Setup, show_progress=True, checkpoint=None) -> 
             + (f", also after {retries} further compressions of {config.UNSETTLE_WINDOWS}+ "
                "windows"
                if retries else "")
-            + ("; the exact LP finds no static network of this configuration (S is empty)"
-               if restart == "S empty" else
-               f"; restarted from an exact point of S (the LP's) after stalling at "
+            + ("; the exact certificate (interior point) finds no static network of this "
+               "configuration (S is empty)" if restart == "S empty" else
+               f"; restarted from an exact point of S (the certificate's) after stalling at "
                f"{stalled:.3g}"))
     check_overlap(setup, packing)
     packing.meta = meta
