@@ -41,10 +41,11 @@ import json
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
+
+from .protocol_validation import pool_rows
 
 PROTOCOLS = {"reference": "paper_fast", "candidate": "paper_certified"}
 CAPS = {"billiard": 20000}
@@ -135,17 +136,14 @@ def run(sizes, mus, seeds, jobs, out: Path, reference_from=None) -> list:
     ref = size_rows(reference_from)
     todo = [(pr, n, mu, s) for n in sizes for mu in mus for s in range(1, seeds + 1)
             for pr in PROTOCOLS if (pr, n, mu, s) not in have]
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = [pool.submit(one, *t, str(out), ref) for t in todo]
-        for fut in as_completed(futures):
-            row = fut.result()
-            rows.append(row)
-            with path.open("a") as fh:
-                fh.write(json.dumps(row) + "\n")
-            cpu = "kept" if row["jam_cpu_s"] is None else f"{row['jam_cpu_s']:.1f} CPU s"
-            print(f"  {row['protocol']:9s} n={row['n']:4d} mu={row['mu']:g} seed={row['seed']:2d}"
-                  f": {cpu}, z {row['z']:.3f}, ended by {row['jam_end']}, eta "
-                  f"{row.get('eta_billiard')}", flush=True)
+
+    def said(row):
+        cpu = "kept" if row["jam_cpu_s"] is None else f"{row['jam_cpu_s']:.1f} CPU s"
+        return (f"  {row['protocol']:9s} n={row['n']:4d} mu={row['mu']:g} seed={row['seed']:2d}"
+                f": {cpu}, z {row['z']:.3f}, ended by {row['jam_end']}, eta "
+                f"{row.get('eta_billiard')}")
+
+    pool_rows([(one, (*t, str(out), ref)) for t in todo], jobs, path, rows, said)
     return rows
 
 

@@ -130,20 +130,32 @@ def run(sizes, seeds, jobs: int, path: Path, protocols=("reference", "candidate"
     have = {(r["protocol"], r["n"], r["seed"]) for r in rows}
     todo = [(pr, n, s) for n in sizes for s in range(1, seeds + 1)
             for pr in protocols if (pr, n, s) not in have]
+
+    def said(row):
+        cpu = "kept, untimed" if row["cpu_s"] is None else f"{row['cpu_s']:6.1f} CPU s"
+        what = (f"FAILED: {row['error']}" if "error" in row else
+                f"z {row['z']:.3f}, phi {row['phi']:.4f}, "
+                f"dim S/Nc {row['dim_s_per_nc']:.3f}")
+        return f"  {row['protocol']:9s} n={row['n']:4d} seed={row['seed']:2d}: {cpu}, {what}"
+
+    pool_rows([(one, (*t, scene_file, mu, (overrides or {}).get(t[0]),
+                      keep if t[0] == "candidate" else None)) for t in todo],
+              jobs, path, rows, said)
+    return rows
+
+
+def pool_rows(tasks, jobs: int, path: Path, rows: list, said) -> list:
+    """Run every (function, arguments) of ``tasks`` in ``jobs`` worker processes; append
+    each row (a dict) to ``rows`` and to ``path`` (JSON lines) as it finishes and print
+    ``said(row)``. Returns ``rows``."""
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = {pool.submit(one, *t, scene_file, mu, (overrides or {}).get(t[0]),
-                               keep if t[0] == "candidate" else None): t for t in todo}
+        futures = [pool.submit(fn, *args) for fn, args in tasks]
         for fut in as_completed(futures):
             row = fut.result()
             rows.append(row)
             with path.open("a") as fh:
                 fh.write(json.dumps(row) + "\n")
-            cpu = "kept, untimed" if row["cpu_s"] is None else f"{row['cpu_s']:6.1f} CPU s"
-            what = (f"FAILED: {row['error']}" if "error" in row else
-                    f"z {row['z']:.3f}, phi {row['phi']:.4f}, "
-                    f"dim S/Nc {row['dim_s_per_nc']:.3f}")
-            print(f"  {row['protocol']:9s} n={row['n']:4d} seed={row['seed']:2d}: {cpu}, "
-                  f"{what}", flush=True)
+            print(said(row), flush=True)
     return rows
 
 
