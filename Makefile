@@ -45,6 +45,7 @@ bench: install liggghts
 	$(BIN)/python studies/accuracy_vs_time.py
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_engine
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_analysis
+	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_certificate
 
 STUDIES     := fig1 fig3 fig2 size pointforce selection
 STUDY_ARGS  ?=
