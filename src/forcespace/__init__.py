@@ -16,6 +16,11 @@ The public API (``import forcespace as fs``)::
     slice_problem(packing, height)    the paper's slice: S of its interior contacts
     full_problem(packing)             the whole packing (bottom plate a support)
     plate_problem(packing)            the whole packing under a load-controlled plate
+    read_csv_pair, read_pegs, read_lammps_dump   a measured frame (another code, an
+                                      experiment) -> Packing with its measurement
+    frame_problem(packing, region)    S of a frame's region ("rim=1", "all", Region(...))
+    Measured(...).compute(problem)    a measured network against S: imbalance, Coulomb,
+                                      distance, nearest network, ranges, empty S relaxed
     ForceSpace(...).compute(problem)  exact analysis of S: dim, bounded, centre, radius,
                                       ranges, domains, distance(x), plot
     HitAndRun(n, seed).compute(problem)   uniform samples of S (coordinate hit-and-run,
@@ -28,7 +33,7 @@ The public API (``import forcespace as fs``)::
     distance_from_centre(samples, x0) Fig. 3 distances
     Section(n, seed).compute(problem, x0, directions)   a 2-D cross-section of S (Fig. 3)
     Selection(kt_ratio, kn).compute(problem)   the network elastic springs select in S
-    plot_packing, plot_difference     figures on the caller's Axes
+    plot_packing, plot_difference, plot_measured   figures
     InputError, NumericalError        what the library raises (CLI exit 2 and 3)
 
 Units: lengths in R, forces in F0, force vectors in problem column order
@@ -50,6 +55,9 @@ _LAZY = {
     "Packing": "model.packing",
     "slice_problem": "model.problem", "full_problem": "model.problem",
     "plate_problem": "model.problem", "StaticsProblem": "model.problem",
+    "frame_problem": "model.frame", "Region": "model.frame",
+    "read_csv_pair": "io.readers", "read_pegs": "io.readers",
+    "read_lammps_dump": "io.readers", "Measured": "space.measured",
     "jam": "engine.protocol",
     "ForceSpace": "space.force_space",
     "Section": "space.section", "Selection": "space.selection",
@@ -59,7 +67,7 @@ _LAZY = {
     "read_packing": "io.packing_file", "write_packing": "io.packing_file",
     "read_ensemble": "sampling.diagnostics",
     "eta": "measures", "distance_from_centre": "measures", "difference_field": "measures",
-    "plot_difference": "plot", "plot_packing": "plot",
+    "plot_difference": "plot", "plot_packing": "plot", "plot_measured": "plot",
 }
 
 __all__ = ["__version__", "ForcespaceError", "InputError", "NumericalError", *_LAZY]

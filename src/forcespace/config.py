@@ -24,6 +24,23 @@ STATIC_RETRIES = 3          # [compressions] further compressions after a failed
 UNSETTLE_WINDOWS = 10       # [windows] the rest test is suspended for this many windows
                             # before each retry, so the creep shows again
 
+# ---- measured networks (readers, frames, check) ------------------------------------------
+CONTACT_GAP_TOL = 0.1       # [1] a reader refuses a listed contact whose surface gap or overlap
+                            # exceeds this x the smaller radius of the pair (0.1 r: an image's
+                            # detection error of a few pixels on 30-pixel disks; DEM overlaps
+                            # are < 1e-2 r): the two particles do not touch
+CONTACT_NORMAL_TOL = 0.05   # [rad] a contact normal given in the data may differ this much from the
+                            # centres' direction (which defines it); more: reversed or another frame
+UNKNOWN_SIGMA = 1e3         # [<Fn>] uncertainty given to a contact whose force was not measured
+                            # when the nearest admissible network is sought (practically free)
+SIGMA_FLOOR = 1e-3          # [1] a measurement uncertainty below this x the median is raised to it
+                            # (two equal estimates of a contact would weigh it infinitely)
+LOAD_ROUND_OFF = 1e-9       # [<Fn>] measured loads on a region's disks that no network can
+                            # balance (A x = b inconsistent) by more than this are data, not
+                            # round-off: S is empty and the smallest relaxation is reported
+MEASURED_VIOLATION = 1e-9   # [<Fn>] a measured contact violates Coulomb (|ft| > mu fn or
+                            # fn < 0) when it does by more than this
+
 # ---- linear algebra of S (ranks, null spaces) ------------------------------------------
 RANK_TOL = 1e-10            # [1] singular value s counts when s > RANK_TOL * s_max * max(shape)
                             # (numpy's matrix_rank rule with a cut-off above round-off of
@@ -50,6 +67,14 @@ IMPLICIT_TOL = 1e-9         # [<Fn>] an inequality whose slack never exceeds thi
                             # implicit equality (a contact forced to slide or to carry nothing)
 VARY_TOL = 1e-6             # [<Fn>] a contact varies in S if its fn or ft can change by more
                             # than this within S
+RANGE_LP_TOL = 1e-10        # [<Fn>] primal and dual feasibility of the warm-started simplex
+                            # LPs of the per-contact ranges of large problems (HiGHS' smallest)
+RANGE_FLAT_ROW = 1e-13      # [1] |G_i N| below this: row i is constant on S's affine hull and left
+                            # out of the range LPs (FLAT_ROW, 1e-9, would let a row still
+                            # varying at 1e-9 <Fn> widen a range by that much)
+HULL_RANGES_MAX_DIM = 4000  # [dimensions] up to this dim S, the per-contact ranges of a large
+                            # problem (SWEEP_MIN_COLUMNS and up) are asked in the affine hull's
+                            # coordinates (dense rows x dim S: 4000 x 4000 doubles = 128 MB)
 REDUCED_LP_MAX_DIM = 200    # [dimensions] up to this dim S, the range LPs of the varying test
                             # are asked in the affine hull's d coordinates, not the 2m forces
 UNBOUNDED_TOL = 1e-7        # [1] recession-cone LP optimum above this: S is unbounded
@@ -77,6 +102,10 @@ HULL_CENTRE_MAX_COLUMNS = 6000  # [columns] above: no centre of S's affine hull 
 KKT_TOL = 1e-9              # [1] stationarity residual (relative) that verifies a projection
 ACTIVE_TOL = 1e-7           # [<Fn>] rows this close to tight start the active-set polish
 POLISH_FEASIBLE = 1e-11     # [<Fn>] a polished point violating a row by more adds it
+QP_TOL = 1e-11              # [<Fn>] duality gap and feasibility of the interior-point projection
+                            # (Clarabel) of a measured network onto S
+QP_KKT_TOL = 1e-7           # [1] its stationarity residual with the solver's multipliers,
+                            # relative to max(|x - x_measured|, <Fn>), that verifies it
 SLIDE_TOL = 1e-9            # [<Fn>] selection: a Coulomb row with less slack is active
 TIGHT_TOL = 1e-9            # [<Fn>] a row of S with less slack is tight when the KKT residual of
                             # a projection is checked (a larger violation: not a projection)

@@ -193,6 +193,84 @@ def plot_difference(packing: Packing, problem, x1, x2, domains=None, ax=None,
     return ax
 
 
+def plot_measured(packing: Packing, check, fig=None, truth=None):
+    """A measured network against S (``check``: a computed
+    :class:`forcespace.space.measured.Measured` of ``packing``): the measured network
+    (top left) beside the nearest admissible one (top right; S empty and no admissible
+    loads: the least-violating one), the analysed region's disks outlined in green;
+    below, every region contact's range of fn and of ft over S (grey bars, sorted by the
+    measured fn) with the measured value marked (black inside its range, red outside)
+    and the nearest admissible value (blue). ``truth`` (2m,) [F0]: a known true network
+    (tests, studies), marked as well. Returns the Figure."""
+    from matplotlib.figure import Figure
+
+    fig = fig or Figure(figsize=(11.0, 10.0))
+    gs = fig.add_gridspec(2, 2, height_ratios=(1.35, 1.0), hspace=0.32)
+    prob, x, s = check.problem, check.x, check.force_scale
+    found = check.nearest is not None
+    net = check.nearest if found else check.least_violating
+    measured, other = (np.asarray(packing.fn, float).copy() for _ in range(2))
+    measured[prob.contacts] = x[0::2]
+    other[prob.contacts] = net[0::2]
+    scale = float(np.abs(np.concatenate([measured, other])).max()) or 1.0
+    titles = (f"measured network ({prob.n_interior} region disks outlined)",
+              ("nearest admissible network" + ("" if check.loads == "measured" else
+                                               " (loads adjusted)")) if found else
+              "S is empty: least-violating network")
+    for k, (vals, title) in enumerate(zip((measured, other), titles)):
+        ax = fig.add_subplot(gs[0, k])
+        plot_packing(packing, ax, values=vals, scale=scale, title=title, legend=k == 0)
+        outline(ax, packing, prob.disks, "C2", linewidth=0.5)
+    fig.text(0.5, 0.0, _measured_line(check), ha="center", va="top", fontsize=9.5)
+    if not (found and check.fn_range is not None):
+        return fig
+    order = np.argsort(x[0::2])
+    for k, (key, label) in enumerate((("fn_range", r"$f_n$"), ("ft_range", r"$f_t$"))):
+        ax = fig.add_subplot(gs[1, k])
+        _range_panel(ax, getattr(check, key)[order] / s, x[k::2][order] / s,
+                     net[k::2][order] / s, check.inside[order],
+                     None if truth is None else np.asarray(truth)[k::2][order] / s)
+        ax.set_xlabel(r"region contact (sorted by measured $f_n$)")
+        ax.set_ylabel(label + r" / $\langle F_n\rangle$")
+        ax.set_title(f"range of {label} over S per contact", fontsize=10)
+    return fig
+
+
+def _measured_line(check) -> str:
+    """One line saying what the check found (the title of :func:`plot_measured`)."""
+    unit = r"$\langle F_n\rangle$"
+    if check.nearest is None:
+        return "S is empty and no adjustment of the loads makes it non-empty"
+    text = (f"dim S = {check.dim}; distance to S = {check.distance:.3g} {unit} (rms per "
+            "measured contact)")
+    if not check.feasible:
+        text = (f"S at the measured loads is empty (smallest total extra load "
+                f"{check.relaxation_total / check.force_scale:.3g} {unit});\nat the loads "
+                f"adjusted least ({check.load_adjustment:.3g} {unit} rms per load contact): "
+                + text)
+    return text
+
+
+def _range_panel(ax, rng, measured, nearest, inside, truth=None) -> None:
+    from matplotlib.lines import Line2D
+
+    idx = np.arange(rng.shape[0])
+    ax.vlines(idx, rng[:, 0], rng[:, 1], color="0.6", lw=1.6)
+    ax.plot(idx, nearest, "_", ms=5, color=STYLE["decrease"])
+    ax.plot(idx[inside], measured[inside], "o", ms=2.5, color="k")
+    ax.plot(idx[~inside], measured[~inside], "x", ms=4, color=STYLE["increase"])
+    handles = [Line2D([], [], color="0.6", lw=1.6, label="range over S"),
+               Line2D([], [], marker="_", ls="", ms=6, color=STYLE["decrease"],
+                      label="nearest admissible"),
+               Line2D([], [], marker="o", ls="", ms=3, color="k", label="measured, inside"),
+               Line2D([], [], marker="x", ls="", ms=4, color=STYLE["increase"],
+                      label="measured, outside")]
+    if truth is not None:
+        ax.plot(idx, truth, ".", ms=2, color="C2")
+        handles.append(Line2D([], [], marker=".", ls="", color="C2", label="true"))
+    ax.legend(handles=handles, fontsize=7.5, loc="upper left")
+
+
 def draw_packing(p: Packing, path, title: str | None = None, values=None,
                  signed: bool = False, dpi: int = 150):
     """:func:`plot_packing` written to ``path`` (its suffix picks the format; a

@@ -36,7 +36,8 @@ EXIT_INPUT = ForcespaceError.exit_code              # 2
 EXIT_NOT_CONVERGED = NumericalError.exit_code       # 3
 EXIT_CLUSTER = 4                                    # the studies' ClusterError
 
-BUILTIN = ("forcespace.cli.packing", "forcespace.cli.space", "forcespace.cli.scene", "forcespace.cli.viewers")
+BUILTIN = ("forcespace.cli.packing", "forcespace.cli.space", "forcespace.cli.scene", "forcespace.cli.viewers",
+           "forcespace.cli.measured")
 
 
 def build_parser() -> argparse.ArgumentParser:

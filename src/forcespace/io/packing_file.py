@@ -16,6 +16,13 @@ Layout::
     /contacts/gap     (Nc,)        surface gap, negative = overlap [R]
     /forces           (Nc, 2) columns fn, ft  force on b        [F0]
     /plate_forces     (k, 2)  per-wall total force on the wall  [F0]
+    /external    (n, 3)  per-disk external force fx, fy [F0], torque [F0 R] (if any)
+    /measured    a measured network (read from another code or an experiment), if any:
+                 known (Nc,) int8 (1: the contact's force is data), sigma (Nc, 2)
+                 [F0] uncertainty of fn, ft (if given), boundary (n,) int8 (the data's
+                 frame-edge flags, if given); attrs provenance (JSON: format, source files
+                 and their sha256, units, pixel scale, conventions), frame (x0, y0, x1,
+                 y1) [R] (if given)
     /solver_log  (k, 5)  compression history (see its attributes)
     /meta        attrs: solver statistics of the run that made the packing
 """
@@ -29,7 +36,8 @@ from ..errors import InputError
 from ..model.scene import SCHEMA_VERSION
 from ..model.setup import Setup
 from .h5 import atomic_h5, open_h5, write_dataset
-from ..model.walls import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES
+from ..model.walls import WALL_CODES, WALL_NAMES
+from ..model.measurement import Measurement
 from ..model.packing import Packing, check_force_signs, check_packing
 
 UNITS = ("lengths in R (smallest radius of the scene's range); masses in rho*R^2 "
@@ -77,7 +85,7 @@ def write_packing(packing: Packing, path, kind: str = "packing", extra_attrs: di
                       "contact force on b: fn along n (>0 compressive), ft along t=(-ny,nx)",
                       columns=["fn", "ft"])
         F = p.contact_forces()
-        walls = [w for w in (BOTTOM, TOP, LEFT, RIGHT) if ((p.a == w) | (p.b == w)).any()]
+        walls = [w for w in WALL_CODES if ((p.a == w) | (p.b == w)).any()]
         pf = np.array([F[p.b == w].sum(0) - F[p.a == w].sum(0) for w in walls]).reshape(-1, 2)
         ds = write_dataset(f, "plate_forces", pf, "F0", "total contact force on each wall",
                            columns=["fx", "fy"])
@@ -90,10 +98,46 @@ def write_packing(packing: Packing, path, kind: str = "packing", extra_attrs: di
                           "change of a step's NLGS",
                           columns=["step", "mean_speed", "max_speed", "sweeps_per_step",
                                    "nlgs_relative_change"])
+        if p.external is not None:
+            write_dataset(f, "external", np.asarray(p.external, float), "F0, F0, F0 R",
+                          "external force and torque on each disk besides gravity",
+                          columns=["fx", "fy", "torque"])
+        if p.measurement is not None:
+            _write_measurement(f, p.measurement)
         m = f.create_group("meta")
         m.attrs["description"] = "statistics of the run that produced this file"
         for k, v in p.meta.items():
             m.attrs[k] = v if isinstance(v, (int, float, str, bool, np.number)) else json.dumps(v)
+
+
+def _write_measurement(f, meas: Measurement) -> None:
+    g = f.create_group("measured")
+    g.attrs["description"] = ("a measured network: which contact forces are data, their "
+                              "uncertainty, the data's frame-edge flags, provenance")
+    g.attrs["provenance"] = meas.provenance_json()
+    if meas.frame is not None:
+        g.attrs["frame"] = np.asarray(meas.frame, float)
+    write_dataset(g, "known", np.asarray(meas.known, np.int8), "1",
+                  "1: the contact's force is measured data; 0: geometry only")
+    if meas.sigma is not None:
+        write_dataset(g, "sigma", np.asarray(meas.sigma, float), "F0",
+                      "standard uncertainty of the measured fn, ft", columns=["fn", "ft"])
+    if meas.boundary is not None:
+        write_dataset(g, "boundary", np.asarray(meas.boundary, np.int8), "1",
+                      "1: the data flags the particle at the edge of its frame")
+
+
+def _read_measurement(f):
+    if "measured" not in f:
+        return None
+    g = f["measured"]
+    frame = g.attrs.get("frame")
+    return Measurement(
+        known=g["known"][()].astype(bool),
+        sigma=g["sigma"][()] if "sigma" in g else None,
+        boundary=g["boundary"][()].astype(bool) if "boundary" in g else None,
+        frame=None if frame is None else tuple(float(v) for v in frame),
+        provenance=json.loads(str(g.attrs["provenance"])))
 
 
 def read_packing(path, kind: str = "packing") -> Packing:
@@ -128,11 +172,15 @@ def read_packing(path, kind: str = "packing") -> Packing:
                 scene_name=str(f.attrs["scene_name"]), meta=meta,
                 solver_log=f["solver_log"][()] if "solver_log" in f else None,
                 source=str(path), setup=Setup.from_text(str(f.attrs["scene_text"]),
-                                                        f"{path} (scene_text)"))
+                                                        f"{path} (scene_text)"),
+                external=f["external"][()] if "external" in f else None,
+                measurement=_read_measurement(f))
         except KeyError as exc:
             raise InputError(path, str(exc.args[0]) if exc.args else "?",
                              "missing from the file; not a complete forcespace packing") from None
         except (ValueError, TypeError, IndexError) as exc:
             raise InputError(path, "(layout)", f"unreadable as a forcespace packing ({exc})") \
                 from None
-    return check_force_signs(check_packing(p, path), path)
+    check_packing(p, path)
+    # a measured network may hold noisy tension (fn < 0): data to report, not a corrupt file
+    return p if p.measurement is not None else check_force_signs(p, path)

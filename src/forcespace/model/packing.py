@@ -15,7 +15,10 @@ Conventions (used everywhere in forcespace)
   ``-r*ft`` on b and ``-r*ft`` on a (both bodies turn the same way).
 * Periodic x: b's centre is taken at ``x_b + image*width``.
 * Wall contacts: BOTTOM is always ``a`` (n = (0, 1)), TOP is always ``b``
-  (n = (0, 1)), LEFT is ``a`` (n = (1, 0)), RIGHT is ``b`` (n = (1, 0)).
+  (n = (0, 1)), LEFT is ``a`` (n = (1, 0)), RIGHT is ``b`` (n = (1, 0)); WALL (a
+  measured frame's wall, any normal) is always ``a``, its normal points into the disk.
+* Body forces: gravity (``gravity``, along -y) plus, for measured packings, any
+  per-disk external force and torque (``external`` (n, 3): fx, fy [F0], torque [F0 R]).
 """
 from __future__ import annotations
 
@@ -25,8 +28,10 @@ import numpy as np
 
 from .. import config
 from ..errors import InputError
+from .measurement import Measurement, check_measurement
 from .setup import Setup
-from .walls import BOTTOM, LEFT, RIGHT, TOP, WALL_NAMES, contact_mu_array  # noqa: F401
+from .walls import (BOTTOM, LEFT, RIGHT, TOP, WALL, WALL_NAMES,  # noqa: F401 (re-exported)
+                    contact_mu_array)
 
 
 @dataclass
@@ -68,21 +73,33 @@ class Packing:
     # the scene that made it as records (the engine's, or read from scene_text by
     # io.packing_file); None for packings from elsewhere (from_arrays, other formats)
     setup: Setup | None = field(default=None, compare=False, repr=False)
+    # per-disk external force and torque besides gravity, (n, 3): fx, fy [F0], torque
+    # [F0 R] (None: none); measured data: which forces are data, their uncertainty and
+    # provenance (None: the engine made every force)
+    external: np.ndarray | None = field(default=None, compare=False, repr=False)
+    measurement: Measurement | None = field(default=None, compare=False, repr=False)
 
     # ---- construction, files, figures ----------------------------------------
     @classmethod
     def from_arrays(cls, x, y, r, a, b, fn=None, ft=None, *, width=None, periodic_x=False,
                     image=None, y_bottom=np.nan, y_top=np.nan, top_force=0.0, gravity=0.0,
-                    density=1.0, mu=0.0, plate_mu=0.0, scene_name="") -> "Packing":
+                    density=1.0, mu=0.0, plate_mu=0.0, scene_name="", wall_normal=None,
+                    external=None, measurement=None) -> "Packing":
         """A packing from positions, radii and a contact list; geometry derived.
 
         x, y, r (n,) [R]; a, b (Nc,) body indices (disks >= 0, walls BOTTOM,
-        TOP, LEFT, RIGHT with the wall conventions of the module docstring);
+        TOP, LEFT, RIGHT, WALL with the wall conventions of the module docstring);
         fn, ft (Nc,) [F0] (default 0). Normals, contact points and gaps come
         from the geometry (periodic x: b at x_b + image*width, image default
         the minimum image). Without ``width`` a non-periodic box spans the disks.
+        ``wall_normal`` (Nc, 2): the unit normal of each WALL contact (from the wall
+        into the disk; other rows ignored); its contact point is the disk's surface
+        point facing the wall, its gap 0. ``external`` (n, 3), ``measurement``: as the
+        fields.
         """
         x, y, r = (np.asarray(v, float).copy() for v in (x, y, r))
+        if wall_normal is not None:
+            wall_normal = np.asarray(wall_normal, float)
         a = np.asarray(a, np.int64).copy()
         b = np.asarray(b, np.int64).copy()
         nc = a.shape[0]
@@ -105,6 +122,12 @@ class Packing:
                 normal[k] = dx / dist, (y[j] - y[i]) / dist
                 gap[k] = dist - r[i] - r[j]
                 point[k] = (x[i], y[i]) + (r[i] + 0.5 * gap[k]) * normal[k]
+            elif i == WALL:
+                if j < 0 or wall_normal is None:
+                    raise InputError("from_arrays", "wall_normal", f"contact {k}: a WALL "
+                                     "contact needs a disk as body b and its normal", got=(i, j))
+                normal[k] = wall_normal[k]
+                point[k] = (x[j], y[j]) - r[j] * normal[k]
             else:
                 disk = j if i < 0 else i
                 wall = i if i < 0 else j
@@ -126,7 +149,8 @@ class Packing:
                 a=a, b=b, normal=normal, point=point, image=img, gap=gap,
                 fn=zeros.copy() if fn is None else np.asarray(fn, float).copy(),
                 ft=zeros.copy() if ft is None else np.asarray(ft, float).copy(),
-                scene_name=scene_name)
+                scene_name=scene_name, measurement=measurement,
+                external=None if external is None else np.asarray(external, float).copy())
         return check_packing(p, "from_arrays")
 
     def plot(self, ax=None, values=None, signed: bool = False, **kw):
@@ -173,11 +197,19 @@ class Packing:
         return self.fn[:, None] * self.normal + self.ft[:, None] * self.tangent
 
     def external_forces(self) -> np.ndarray:
-        """Body forces on the disks (gravity), shape (n, 2) [F0]."""
+        """Body forces on the disks (gravity plus ``external``), shape (n, 2) [F0]."""
         f = np.zeros((self.n_disks, 2))
         if self.gravity != 0.0:
             f[:, 1] = -self.mass * self.gravity
+        if self.external is not None:
+            f += self.external[:, :2]
         return f
+
+    def external_torques(self) -> np.ndarray:
+        """External torques on the disks (from ``external``), shape (n,) [F0 R]."""
+        if self.external is None:
+            return np.zeros(self.n_disks)
+        return np.asarray(self.external[:, 2], float).copy()
 
     def net_forces(self, fn=None, ft=None):
         """Net force (n, 2) and torque (n,) on every disk (contacts and body forces), and
@@ -228,12 +260,18 @@ class Packing:
         ``rel_threshold`` times the mean normal force), whatever its number
         of touching neighbours. A disk that bears load is never a rattler,
         even with 1 or 2 contacts (a disk in a groove under gravity).
+        Measured packings whose data leave some contact forces unknown
+        (``measurement.known``): a disk with no measured force-bearing contact is
+        decided by geometry instead (:func:`geometric_rattlers`).
         """
         live = self.force_bearing(rel_threshold)
         carrying = np.zeros(self.n_disks, dtype=bool)
         carrying[self.a[live & (self.a >= 0)]] = True
         carrying[self.b[live & (self.b >= 0)]] = True
-        return ~carrying
+        m = self.measurement
+        if m is None or np.all(m.known):
+            return ~carrying
+        return geometric_rattlers(self, carrying, ~np.asarray(m.known, bool))
 
     def coordination(self, rel_threshold: float | None = None) -> float:
         """z = 2 Nc / n over non-rattler disks, Nc = force-bearing contacts among them.
@@ -307,6 +345,8 @@ class Packing:
             "equilibrium_residual": self.equilibrium_residual(),
             "max_overlap": self.max_overlap(),
             **{k: v for k, v in self.meta.items() if isinstance(v, (int, float, str, bool))},
+            **({"measurement": self.measurement.summary()} if self.measurement is not None
+               else {}),
         }
 
     def packing_fraction(self) -> float | None:
@@ -321,8 +361,9 @@ def contact_sums(p: Packing, fn, ft, contacts=None, external: bool = False):
     contact k pushes ``fn n + ft t`` on body b and its negative on body a, and turns
     both by ``-r ft``. ``contacts``: a mask or indices of the contacts that count
     (default all); ``fn, ft`` (Nc,) [F0]; ``external``: start from the body forces
-    (gravity). THE force assembly of forcespace: body forces first, then the contacts
-    one by one (b, then a), so every caller gets the same bits."""
+    (gravity and ``p.external``, torques included). THE force assembly of forcespace:
+    body forces first, then the contacts one by one (b, then a), so every caller gets
+    the same bits."""
     fn = np.asarray(fn, float)
     ft = np.asarray(ft, float)
     F = fn[:, None] * p.normal + ft[:, None] * p.tangent
@@ -334,10 +375,36 @@ def contact_sums(p: Packing, fn, ft, contacts=None, external: bool = False):
     turn = np.repeat(ft[k], 2)
     disk = body >= 0
     force = p.external_forces() if external else np.zeros((p.n_disks, 2))
-    torque = np.zeros(p.n_disks)
+    torque = p.external_torques() if external else np.zeros(p.n_disks)
     np.add.at(force, body[disk], push[disk])
     np.add.at(torque, body[disk], -p.r[body[disk]] * turn[disk])
     return force, torque
+
+
+def geometric_rattlers(p: Packing, carrying, unknown) -> np.ndarray:
+    """Rattlers (n,) bool of a packing whose contacts ``unknown`` (Nc,) have no measured
+    force: a disk that ``carrying`` (n,) (a measured force-bearing contact) is never one;
+    the others are pruned by geometry, repeatedly: a disk without body force (gravity,
+    ``external``) with fewer than 2 contacts that may carry force (unknown ones, to a
+    wall or to a disk not pruned) is a rattler. Exact: one contact alone cannot balance a
+    disk, so its force is 0 in every admissible network (S is unchanged)."""
+    loaded = carrying.copy()
+    if p.gravity > 0:
+        loaded[:] = True
+    if p.external is not None:
+        loaded |= np.any(np.asarray(p.external) != 0.0, axis=1)
+    a, b = np.asarray(p.a), np.asarray(p.b)
+    rattler = np.zeros(p.n_disks, dtype=bool)
+    while True:
+        live = unknown & ((a < 0) | ~rattler[np.maximum(a, 0)]) & (
+            (b < 0) | ~rattler[np.maximum(b, 0)])
+        count = np.zeros(p.n_disks, np.int64)
+        np.add.at(count, a[live & (a >= 0)], 1)
+        np.add.at(count, b[live & (b >= 0)], 1)
+        new = rattler | (~loaded & (count < 2))
+        if np.array_equal(new, rattler):
+            return rattler
+        rattler = new
 
 
 def check_force_signs(p: Packing, source="packing") -> Packing:
@@ -397,8 +464,8 @@ def check_packing(p: Packing, source="packing") -> Packing:
             bad(f"contacts/{name}", f"must have shape {shape}", got=np.shape(getattr(p, name)))
     for name in ("a", "b"):
         idx = np.asarray(getattr(p, name))
-        if idx.size and (idx.min() < RIGHT or idx.max() >= n):
-            bad("contacts/bodies", f"indices must be disks 0..{n - 1} or walls -1..-4",
+        if idx.size and (idx.min() < WALL or idx.max() >= n):
+            bad("contacts/bodies", f"indices must be disks 0..{n - 1} or walls -1..-5",
                 got=(int(idx.min()), int(idx.max())))
     if np.any(p.a == p.b):
         bad("contacts/bodies", "a contact must join two different bodies")
@@ -409,6 +476,14 @@ def check_packing(p: Packing, source="packing") -> Packing:
     if nc and np.abs(np.hypot(p.normal[:, 0], p.normal[:, 1]) - 1.0).max() > \
             config.UNIT_NORMAL_TOL:
         bad("contacts/normal", "must be unit vectors")
+    if np.any((p.b == WALL) | ((p.a == WALL) & (p.b < 0))):
+        bad("contacts/bodies", "a WALL (-5) contact has the wall as body a and a disk as b")
+    if p.external is not None:
+        ext = np.asarray(p.external)
+        if ext.shape != (n, 3) or not np.all(np.isfinite(ext)):
+            bad("external", f"must be finite, shape ({n}, 3): fx, fy [F0], torque [F0 R]",
+                got=ext.shape)
+    check_measurement(p.measurement, n, nc, source)
     return p
 
 
@@ -433,7 +508,10 @@ def tile(p: Packing, k: int) -> Packing:
     fields = {name: np.concatenate([getattr(p, name)] * k)
               for name in ("normal", "point", "gap", "fn", "ft")}
     density = p.density if np.ndim(p.density) == 0 else np.tile(p.density, k)
+    if p.measurement is not None:
+        raise InputError("tile", "packing", "a measured packing (a frame) cannot be tiled")
+    external = None if p.external is None else np.tile(p.external, (k, 1))
     return replace(p, x=x, y=np.tile(p.y, k), r=np.tile(p.r, k), width=k * p.width,
                    top_force=k * p.top_force, density=density, a=np.concatenate(a_blocks),
                    b=np.concatenate(b_blocks), image=np.concatenate(img_blocks), source="",
-                   **fields)
+                   external=external, **fields)

@@ -114,7 +114,7 @@ class StaticsProblem:
         """
         f = float(factor)
         meta = dict(self.meta)
-        for k in ("b_raw", "packing_fn", "packing_ft"):
+        for k in ("b_raw", "packing_fn", "packing_ft", "load_x", "b_body"):
             if k in meta:
                 meta[k] = np.asarray(meta[k], float) * f
         return dataclasses.replace(
@@ -335,7 +335,8 @@ def _consistent_loads(A, b, mu) -> np.ndarray:
 
 def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
                   gap_tol: float = np.inf, source: str = "", support_mask=None,
-                  rattlers=None, mu: float | None = None) -> StaticsProblem:
+                  rattlers=None, mu: float | None = None,
+                  wall_mu: float | None = None) -> StaticsProblem:
     """Assemble the problem for the interior disks given by ``interior_mask`` (n,).
 
     ``unknown_walls``: wall codes whose contacts with interior disks are unknowns
@@ -345,7 +346,8 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     ``rattlers`` (n,) overrides ``Packing.rattlers()`` (for hand-built systems).
     ``mu``: friction coefficient of the disk-disk contacts instead of the
     packing's own (the paper's frictionless packing "with friction switched
-    on"); wall contacts keep ``plate_mu``. Recorded as ``meta["mu_override"]``.
+    on"); wall contacts keep ``plate_mu`` unless ``wall_mu`` is given (a measured frame's
+    walls as unknowns). Recorded as ``meta["mu_override"]``, ``meta["wall_mu"]``.
     """
     source = source or getattr(p, "source", "")
     if mu is not None and not (np.isfinite(mu) and 0 <= mu <= 1e6):
@@ -354,7 +356,11 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     if np.isnan(gap_tol) or gap_tol < 0:
         raise InputError(source or "problem", "gap_tol", "must be a number >= 0 [R] (or inf)",
                          got=gap_tol)
+    if wall_mu is not None and not (np.isfinite(wall_mu) and 0 <= wall_mu <= 1e6):
+        raise InputError(source or "problem", "wall_mu", "must be a number in [0, 1e6] (a "
+                         "Coulomb coefficient)", got=wall_mu)
     mu_override = None if mu is None else float(mu)
+    mu_wall = p.plate_mu if wall_mu is None else float(wall_mu)
     check_packing(p, source or "packing")
     rat = p.rattlers() if rattlers is None else np.asarray(rattlers, bool)
     interior = np.asarray(interior_mask, bool) & ~rat
@@ -369,17 +375,12 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     contacts = np.flatnonzero(unknown)
     m = contacts.size
     mu_disks = p.mu if mu_override is None else mu_override
-    mu = contact_mu_array(p.a[contacts], p.b[contacts], mu_disks, p.plate_mu)
+    mu = contact_mu_array(p.a[contacts], p.b[contacts], mu_disks, mu_wall)
     r = np.asarray(p.r, float)
     A = _equilibrium_matrix(p, contacts, interior, local)
     # loads: body forces and the fixed contact forces
-    load_force, load_torque = contact_sums(p, p.fn, p.ft, load, external=True)
-    bvec = np.empty(3 * n)
-    bvec[0::3] = -load_force[disks, 0]
-    bvec[1::3] = -load_force[disks, 1]
-    bvec[2::3] = -load_torque[disks] / r[disks]
-    b_raw = bvec.copy()
-    bvec = _consistent_loads(A, bvec, mu)
+    b_raw = _rhs(p, load, disks)
+    bvec = _consistent_loads(A, b_raw, mu)
     inconsistency = float(np.abs(b_raw - bvec).max(initial=0.0))
 
     x_j = np.empty(2 * m)
@@ -401,9 +402,33 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
         meta={"load_inconsistency": inconsistency / scale, "b_raw": b_raw,
               "packing_fn": np.asarray(p.fn, float).copy(),
               "packing_ft": np.asarray(p.ft, float).copy(),
-              "packing_mu": p.mu, "plate_mu": p.plate_mu,
+              "packing_mu": p.mu, "plate_mu": p.plate_mu, "wall_mu": mu_wall,
               "mu_override": mu_override,
-              "scene_name": p.scene_name, "scene_text": p.scene_text})
+              "scene_name": p.scene_name, "scene_text": p.scene_text,
+              **_load_terms(p, np.flatnonzero(load), interior, local, disks, mu_disks,
+                            mu_wall)})
+
+
+def _rhs(p: Packing, contacts, disks) -> np.ndarray:
+    """b (3n,) = -(body forces + the forces of ``contacts`` held fixed) on ``disks``:
+    rows x, y, torque / r (module docstring)."""
+    force, torque = contact_sums(p, p.fn, p.ft, contacts, external=True)
+    b = np.empty(3 * disks.size)
+    b[0::3] = -force[disks, 0]
+    b[1::3] = -force[disks, 1]
+    b[2::3] = -torque[disks] / np.asarray(p.r, float)[disks]
+    return b
+
+
+def _load_terms(p: Packing, load, interior, local, disks, mu_disks, mu_wall) -> dict:
+    """How b depends on the load contacts (for measured loads, which may be adjusted):
+    b_raw = b_body - load_A @ load_x, load_A (3n, 2L) the equilibrium columns of the L
+    load contacts, load_x (2L,) their forces (fn, ft) [F0], load_mu (L,) their friction,
+    b_body (3n,) minus the body forces alone."""
+    return {"load_A": _equilibrium_matrix(p, load, interior, local),
+            "load_x": np.column_stack([p.fn[load], p.ft[load]]).ravel(),
+            "load_mu": contact_mu_array(p.a[load], p.b[load], mu_disks, mu_wall),
+            "b_body": _rhs(p, np.zeros(0, np.int64), disks)}
 
 
 def problem_for(packing: Packing, slice_height: float | None = None, full: bool = False,

@@ -2,13 +2,17 @@
 
 A packing names bodies by index: disks 0..n-1, walls by negative codes
 ``BOTTOM`` (-1, fixed lower plate), ``TOP`` (-2, load-controlled upper plate),
-``LEFT`` (-3) and ``RIGHT`` (-4) (side walls, only without periodic x).
+``LEFT`` (-3) and ``RIGHT`` (-4) (side walls, only without periodic x), and
+``WALL`` (-5): a wall of a measured frame (an experiment's boundary: an annulus, a
+tilted wall, a biaxial cell), with any normal, stored per contact. The engine never
+makes ``WALL`` contacts; its kernels know the first four only.
 The engine's kernels keep walls after the disks in the same body arrays:
 wall code c sits at kernel index ``n - c - 1``, i.e. slot ``n + SLOT_*``.
 
 Wall contacts have a fixed orientation: BOTTOM and LEFT are body ``a``,
 TOP and RIGHT body ``b``; normals (0, 1) for the plates, (1, 0) for the
-side walls.
+side walls. ``WALL`` is body ``a`` and its contact's normal (any unit vector) points
+from the wall into the disk.
 
 Friction rule (the only place it is written): a contact with a wall has
 the disk-wall coefficient ``plate_mu``, every other contact the disk-disk
@@ -19,8 +23,9 @@ from __future__ import annotations
 import numpy as np
 from ..kernels import kernel
 
-BOTTOM, TOP, LEFT, RIGHT = -1, -2, -3, -4
-WALL_NAMES = {BOTTOM: "bottom", TOP: "top", LEFT: "left", RIGHT: "right"}
+BOTTOM, TOP, LEFT, RIGHT, WALL = -1, -2, -3, -4, -5
+WALL_NAMES = {BOTTOM: "bottom", TOP: "top", LEFT: "left", RIGHT: "right", WALL: "wall"}
+WALL_CODES = (BOTTOM, TOP, LEFT, RIGHT, WALL)
 
 N_WALL_SLOTS = 4
 SLOT_BOTTOM, SLOT_TOP, SLOT_LEFT, SLOT_RIGHT = 0, 1, 2, 3

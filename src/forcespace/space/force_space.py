@@ -163,7 +163,8 @@ class ForceSpace(Computed):
 
     @property
     def fn_range(self) -> np.ndarray | None:
-        """(m, 2) min and max of fn over S [F0] (``ranges=True``; else None)."""
+        """(m, 2) min and max of fn over S [F0] (``ranges=True``; else None); an unbounded
+        side is +-inf."""
         return self._get("fn_range")
 
     @property
@@ -261,7 +262,8 @@ class ForceSpace(Computed):
              "max_sum_fn": r.get("max_sum_fn"), "force_scale": r.get("force_scale"),
              "centre_radius": r.get("radius")}
         if r.get("infeasibility") is not None:
-            d["infeasibility"] = r["infeasibility"]
+            d["infeasibility"] = {k: v for k, v in r["infeasibility"].items()
+                                  if k not in ("least_violating", "relaxation")}
         rd = r.get("recession_direction")
         if rd is not None:
             d["recession_direction_support"] = int((np.abs(rd) > config.RECESSION_SUPPORT_TOL * np.abs(rd).max()).sum())
@@ -355,7 +357,7 @@ def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol
     out["affine_point"], out["affine_basis"] = xa, N
     out["implicit"], out["sliding_contacts"], out["zero_contacts"] = \
         implicit_kinds(imp, owner, kind)
-    if bounded and ranges:
+    if ranges:                  # an unbounded side of a range is +-inf
         stage("ranges")
         out["fn_range"], out["ft_range"] = column_ranges(problem, N, xa)
     if bounded and centre:

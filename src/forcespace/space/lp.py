@@ -131,6 +131,62 @@ def _quiet_highs():
     return h
 
 
+class HullRanges:
+    """min c.y over the polytope {H y <= h} (y (d,): coordinates in S's affine hull) for
+    many objectives c, by the dual LP
+
+        max -h.mu  s.t.  H^T mu = -c,  mu >= 0
+
+    (equal optima by LP duality): its d rows are the only thing an objective changes (their
+    right-hand side), so HiGHS' dual simplex restarts from the previous optimal basis, of
+    size d instead of the primal's number of rows (1000-particle frame, d = 41, 2004 rows:
+    2.2 ms and 12 pivots per objective, against 4.8 ms and 17 pivots by warm primal simplex
+    on the primal and 21 ms by warm dual simplex). ``minimum(c)`` -> (status, value): 0
+    optimal, 3 unbounded below (the dual is infeasible), 1 anything else."""
+
+    def __init__(self, H, h, tol: float = 1e-10):
+        import highspy
+
+        H = np.asarray(H, float)
+        p, d = H.shape
+        A = sp.csc_matrix(H.T)
+        lp = highspy.HighsLp()
+        lp.num_col_, lp.num_row_ = p, d
+        lp.col_cost_ = np.asarray(h, float)
+        lp.col_lower_ = np.zeros(p)
+        lp.col_upper_ = np.full(p, highspy.kHighsInf)
+        lp.row_lower_ = lp.row_upper_ = np.zeros(d)
+        lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+        lp.a_matrix_.start_ = A.indptr
+        lp.a_matrix_.index_ = A.indices
+        lp.a_matrix_.value_ = A.data
+        self.h = _quiet_highs()
+        for key, value in (("output_flag", False), ("solver", "simplex"), ("presolve", "off"),
+                           ("simplex_strategy", 1), ("threads", 1),
+                           ("primal_feasibility_tolerance", tol),
+                           ("dual_feasibility_tolerance", tol)):
+            self.h.setOptionValue(key, value)
+        self.h.passModel(lp)
+        self.rows = np.arange(d, dtype=np.int32)
+        self.codes = highspy.HighsModelStatus
+
+    def minimum(self, c):
+        c = np.asarray(c, float)
+        h, M = self.h, self.codes
+        h.changeRowsBounds(self.rows.size, self.rows, -c, -c)
+        h.run()
+        status = h.getModelStatus()
+        if status == M.kOptimal:
+            # the primal vertex y is the dual LP's row dual (B^-T h_B from the final basis:
+            # it solves its d active rows to round-off); c.y there, not the dual objective,
+            # which carries the tolerance of every mu_i >= 0 (1e-10 x 2000 slacks: 1e-9 <Fn>)
+            y = np.array(h.getSolution().row_dual)
+            return 0, float(c @ y)
+        if status == M.kInfeasible:
+            return 3, -np.inf
+        return 1, None
+
+
 def solve_lp_interior(c, A_ub, b_ub, A_eq, b_eq, lo, hi, tol: float = 1e-9):
     """min c.x s.t. A_ub x <= b_ub, A_eq x = b_eq, lo <= x <= hi by HiGHS' interior point
     **without crossover** (highspy): the solution lies in the relative interior of the

@@ -127,8 +127,13 @@ def _reduced_kkt(M, u, y, z, scale) -> float:
         return float(np.linalg.norm(z)) / max(float(np.linalg.norm(z)), scale)
     Mt = M[act].T
     colscale = np.maximum(np.linalg.norm(Mt, axis=0), 1e-300)
-    _, res = nnls(Mt / colscale, -z, maxiter=50 * act.size)
-    return float(res) / max(float(np.linalg.norm(z)), scale)
+    lam, res = nnls(Mt / colscale, -z, maxiter=50 * act.size)
+    # complementarity: rows counted tight to 1e-9 <Fn> with huge multipliers (near-dependent
+    # rows, far from S: 6e16 seen) certify nothing; 2 lam.slack bounds the error it leaves
+    # in the squared distance
+    comp = 2.0 * float((lam / colscale) @ np.abs(slack[act]))
+    ref = max(float(np.linalg.norm(z)), scale)
+    return max(float(res) / ref, comp / ref ** 2)
 
 
 def eq_projection(xhat, Ceq, ceq, Gact):
@@ -262,6 +267,85 @@ def distance_to_S(problem: StaticsProblem, x) -> DistanceResult:
     :class:`Projector`.
     """
     return Projector(problem)(x)
+
+
+def qp_project(problem: StaticsProblem, xhat) -> DistanceResult:
+    """The Euclidean projection of ``xhat`` (2m,) onto S of ``problem`` (at <Fn> = 1) by a
+    sparse interior-point QP (Clarabel: sparse LDL^T, so it scales to 1000-particle frames
+    where :func:`project`'s dense null-space method costs minutes), certified: the
+    solver's own optimality (duality gap, feasibility to ``config.QP_TOL`` <Fn>) and
+    forcespace's check of the point (equilibrium and Coulomb to ``config.SAMPLE_VIOLATION``
+    <Fn>) and of the KKT stationarity with the solver's multipliers (relative residual
+    <= ``config.QP_KKT_TOL``). Far from S, where :func:`project`'s multiplier certificate
+    can be fooled by near-dependent rows (multipliers of 1e16), the interior-point
+    multipliers stay bounded. NumericalError when S is empty or the QP does not verify."""
+    import clarabel
+
+    xhat = np.asarray(xhat, float)
+    m2 = problem.n_columns
+    viol0 = problem.violation(xhat)
+    if viol0 <= config.SAMPLE_VIOLATION:      # already in S at the project's resolution
+        return DistanceResult(absolute=0.0, relative=0.0, nearest=xhat.copy(),
+                              max_violation=viol0, kkt_residual=0.0,
+                              method="the point is in S (violation <= SAMPLE_VIOLATION)")
+    G, _, _ = problem.inequalities()
+    Eq, ceq = eq_system(problem)
+    C = sp.vstack([Eq, G]).tocsc()
+    rhs = np.concatenate([ceq, np.zeros(G.shape[0])])
+    cones = [clarabel.ZeroConeT(Eq.shape[0])] + ([clarabel.NonnegativeConeT(G.shape[0])]
+                                                 if G.shape[0] else [])
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = config.QP_TOL
+    settings.max_iter = 400
+    solver = clarabel.DefaultSolver(sp.identity(m2, format="csc"), -xhat, C, rhs, cones,
+                                    settings)
+    sol = solver.solve()
+    status = str(sol.status)
+    if "Infeasible" in status:
+        raise NumericalError("projection onto S: S is empty (the QP is infeasible)")
+    if status not in ("Solved", "AlmostSolved"):
+        raise NumericalError(f"projection onto S: the interior-point QP ended {status}")
+    x = np.array(sol.x)
+    z = np.array(sol.z)
+    stat = (x - xhat) + C.T @ z
+    kkt = float(np.linalg.norm(stat) / max(np.linalg.norm(x - xhat), 1.0))
+    viol = problem.violation(x)
+    if kkt > config.QP_KKT_TOL or viol > config.SAMPLE_VIOLATION:
+        raise NumericalError(f"projection onto S (interior-point QP) could not be verified "
+                             f"(kkt={kkt:.2e}, violation={viol:.2e})")
+    method = f"sparse interior-point QP (Clarabel, {sol.iterations} iterations)"
+    if m2 < config.SWEEP_MIN_COLUMNS:         # small: finish exactly on the active rows
+        act = np.flatnonzero(np.array(sol.s)[Eq.shape[0]:] <= config.ACTIVE_TOL)
+        xp, kkt_p, ok = _polish(problem, xhat, x, active=act, max_iter=8)
+        if ok and problem.violation(xp) <= config.SAMPLE_VIOLATION and (
+                np.linalg.norm(xp - xhat) <= np.linalg.norm(x - xhat) + config.QP_TOL):
+            x, kkt, viol = xp, kkt_p, problem.violation(xp)
+            method += " + exact active-set finish (KKT verified)"
+    d = float(np.linalg.norm(x - xhat))
+    return DistanceResult(absolute=d, relative=d / (problem.force_scale
+                                                   * np.sqrt(max(problem.n_contacts, 1))),
+                          nearest=x, max_violation=viol, kkt_residual=kkt,
+                          method=method + ", KKT and feasibility checked")
+
+
+def weighted_problem(problem: StaticsProblem, kn, kt):
+    """(problem in z = D^-1 x, d (2m,)): S of the weighted coordinates, in which the
+    Euclidean projection minimises sum_j (fn_j^2 / kn_j + ft_j^2 / kt_j) (the elastic
+    selection's complementary energy; with kn = sigma_fn^2, kt = sigma_ft^2 the
+    uncertainty-weighted distance of a measured network).
+
+    d[2j] = sqrt(kn_j / k0), d[2j+1] = sqrt(kt_j / k0), k0 = mean kn (so z is
+    in force units); A -> A diag(d), mu_j -> mu_j sqrt(kn_j / kt_j). The
+    complementary energy of x = d z is |z|^2 / (2 k0).
+    """
+    k0 = float(np.mean(kn))
+    d = np.empty(problem.n_columns)
+    d[0::2] = np.sqrt(kn / k0)
+    d[1::2] = np.sqrt(kt / k0)
+    A = (problem.A @ sp.diags(d)).tocsr()
+    mu = problem.mu * np.sqrt(kn / kt)
+    return dataclasses.replace(problem, A=A, mu=mu, x_jammed=problem.x_jammed / d), d
 
 
 class Projector:

@@ -66,7 +66,7 @@ from ..model.problem import NO_TENSION, StaticsProblem
 from ..result import Computed
 from .questions import check_feasible
 from .lp import unit_problem
-from .projection import project
+from .projection import project, weighted_problem
 
 
 
@@ -89,22 +89,6 @@ def _stiffness(problem: StaticsProblem, kn, kt_ratio, source="select"):
     if not (np.all(np.isfinite(k)) and np.all(k > 0)):
         raise InputError(source, "kn", "must be finite and > 0 [F0/R]")
     return k, r * k
-
-
-def weighted_problem(problem: StaticsProblem, kn, kt):
-    """(problem in z = D^-1 x, d (2m,)): S of the weighted coordinates.
-
-    d[2j] = sqrt(kn_j / k0), d[2j+1] = sqrt(kt_j / k0), k0 = mean kn (so z is
-    in force units); A -> A diag(d), mu_j -> mu_j sqrt(kn_j / kt_j). The
-    complementary energy of x = d z is |z|^2 / (2 k0).
-    """
-    k0 = float(np.mean(kn))
-    d = np.empty(problem.n_columns)
-    d[0::2] = np.sqrt(kn / k0)
-    d[1::2] = np.sqrt(kt / k0)
-    A = (problem.A @ sp.diags(d)).tocsr()
-    mu = problem.mu * np.sqrt(kn / kt)
-    return dataclasses.replace(problem, A=A, mu=mu, x_jammed=problem.x_jammed / d), d
 
 
 class Selection(Computed):
