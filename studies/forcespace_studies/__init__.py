@@ -8,4 +8,5 @@ Each study module has ``tasks(quick: bool) -> list[Task]`` and
 """
 STUDIES = {"fig1": "forcespace_studies.fig1", "fig2": "forcespace_studies.fig2",
            "fig3": "forcespace_studies.fig3", "pointforce": "forcespace_studies.pointforce",
-           "selection": "forcespace_studies.selection", "size": "forcespace_studies.size"}
+           "selection": "forcespace_studies.selection", "size": "forcespace_studies.size",
+           "measured": "forcespace_studies.measured"}

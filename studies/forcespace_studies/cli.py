@@ -12,6 +12,7 @@ DESCRIPTION = {
     "pointforce": "depth of the rearrangement under a point force, against mu",
     "selection": "where in S a soft code lands: the elastic selection",
     "size": "uniform eta, dim S and domains against the number of disks",
+    "measured": "measured networks: the readers' round trip, noisy networks checked against S",
 }
 
 

@@ -25,7 +25,7 @@ from forcespace.extend import atomic_path, code_version, jsonable
 
 from .literature import LITERATURE
 
-ORDER = ("fig1", "fig3", "fig2", "size", "pointforce", "selection")
+ORDER = ("fig1", "fig3", "fig2", "size", "pointforce", "selection", "measured")
 PAPER_VERDICTS = ("reproduced", "refuted", "not decidable",   # a claim of the paper
                   "not applicable")                # a claim about the paper's solver
 HYPOTHESIS_VERDICTS = ("supported", "not supported", "not decidable")   # ours, open questions
