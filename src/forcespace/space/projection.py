@@ -273,60 +273,75 @@ def qp_project(problem: StaticsProblem, xhat) -> DistanceResult:
     """The Euclidean projection of ``xhat`` (2m,) onto S of ``problem`` (at <Fn> = 1) by a
     sparse interior-point QP (Clarabel: sparse LDL^T, so it scales to 1000-particle frames
     where :func:`project`'s dense null-space method costs minutes), certified: the
-    solver's own optimality (duality gap, feasibility to ``config.QP_TOL`` <Fn>) and
-    forcespace's check of the point (equilibrium and Coulomb to ``config.SAMPLE_VIOLATION``
-    <Fn>) and of the KKT stationarity with the solver's multipliers (relative residual
-    <= ``config.QP_KKT_TOL``). Far from S, where :func:`project`'s multiplier certificate
-    can be fooled by near-dependent rows (multipliers of 1e16), the interior-point
-    multipliers stay bounded. NumericalError when S is empty or the QP does not verify."""
-    import clarabel
-
+    solver's own optimality (duality gap and feasibility to its tolerance), forcespace's
+    check of the point (equilibrium and Coulomb to ``config.SAMPLE_VIOLATION`` <Fn>) and
+    the KKT stationarity with the solver's multipliers (relative residual <=
+    ``config.QP_KKT_TOL``); small problems (below ``config.SWEEP_MIN_COLUMNS`` columns) are
+    finished exactly on the active rows (:func:`_polish`). Far from S, where
+    :func:`project`'s multiplier certificate can be fooled by near-dependent rows
+    (multipliers of 1e16), the interior-point multipliers stay bounded. Tolerances
+    ``config.QP_TOLS`` are tried in turn (the tightest can end in "insufficient
+    progress"). NumericalError when S is empty or no attempt verifies."""
     xhat = np.asarray(xhat, float)
-    m2 = problem.n_columns
     viol0 = problem.violation(xhat)
     if viol0 <= config.SAMPLE_VIOLATION:      # already in S at the project's resolution
         return DistanceResult(absolute=0.0, relative=0.0, nearest=xhat.copy(),
                               max_violation=viol0, kkt_residual=0.0,
                               method="the point is in S (violation <= SAMPLE_VIOLATION)")
+    reason = ""
+    for tol in config.QP_TOLS:
+        status, x, kkt, active, iterations = _clarabel_projection(problem, xhat, tol)
+        if status != "Solved":
+            reason = f"the interior-point QP ended {status} at tolerance {tol:g}"
+            continue
+        method = f"sparse interior-point QP (Clarabel, tolerance {tol:g}, {iterations} " \
+                 "iterations)"
+        if problem.n_columns < config.SWEEP_MIN_COLUMNS:    # finish exactly
+            xp, kkt_p, ok = _polish(problem, xhat, x, active=active, max_iter=8)
+            if ok and problem.violation(xp) <= config.SAMPLE_VIOLATION and (
+                    np.linalg.norm(xp - xhat) <= np.linalg.norm(x - xhat) + tol):
+                x, kkt = xp, kkt_p
+                method += " + exact active-set finish (KKT verified)"
+        viol = problem.violation(x)
+        if kkt > config.QP_KKT_TOL or viol > config.SAMPLE_VIOLATION:
+            reason = f"not verified at tolerance {tol:g} (kkt={kkt:.2e}, violation={viol:.2e})"
+            continue
+        d = float(np.linalg.norm(x - xhat))
+        return DistanceResult(absolute=d, relative=d / (problem.force_scale * np.sqrt(
+            max(problem.n_contacts, 1))), nearest=x, max_violation=viol, kkt_residual=kkt,
+            method=method + ", KKT and feasibility checked")
+    raise NumericalError(f"projection onto S: {reason}")
+
+
+def _clarabel_projection(problem: StaticsProblem, xhat, tol: float):
+    """One Clarabel solve of min |x - xhat|^2 / 2 over S: (status: "Solved" (also for its
+    "AlmostSolved"), "Infeasible" raises, or the solver's word; x (2m,); the relative KKT
+    stationarity residual with its multipliers; the inequality rows with slack below
+    ``config.ACTIVE_TOL``; iterations)."""
+    import clarabel
+
     G, _, _ = problem.inequalities()
     Eq, ceq = eq_system(problem)
     C = sp.vstack([Eq, G]).tocsc()
-    rhs = np.concatenate([ceq, np.zeros(G.shape[0])])
     cones = [clarabel.ZeroConeT(Eq.shape[0])] + ([clarabel.NonnegativeConeT(G.shape[0])]
                                                  if G.shape[0] else [])
     settings = clarabel.DefaultSettings()
     settings.verbose = False
-    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = config.QP_TOL
+    settings.tol_gap_abs = settings.tol_gap_rel = settings.tol_feas = tol
     settings.max_iter = 400
-    solver = clarabel.DefaultSolver(sp.identity(m2, format="csc"), -xhat, C, rhs, cones,
-                                    settings)
-    sol = solver.solve()
+    sol = clarabel.DefaultSolver(sp.identity(problem.n_columns, format="csc"), -xhat, C,
+                                 np.concatenate([ceq, np.zeros(G.shape[0])]), cones,
+                                 settings).solve()
     status = str(sol.status)
-    if "Infeasible" in status:
+    if "Infeasible" in status and "Dual" not in status:
         raise NumericalError("projection onto S: S is empty (the QP is infeasible)")
-    if status not in ("Solved", "AlmostSolved"):
-        raise NumericalError(f"projection onto S: the interior-point QP ended {status}")
     x = np.array(sol.x)
-    z = np.array(sol.z)
-    stat = (x - xhat) + C.T @ z
-    kkt = float(np.linalg.norm(stat) / max(np.linalg.norm(x - xhat), 1.0))
-    viol = problem.violation(x)
-    if kkt > config.QP_KKT_TOL or viol > config.SAMPLE_VIOLATION:
-        raise NumericalError(f"projection onto S (interior-point QP) could not be verified "
-                             f"(kkt={kkt:.2e}, violation={viol:.2e})")
-    method = f"sparse interior-point QP (Clarabel, {sol.iterations} iterations)"
-    if m2 < config.SWEEP_MIN_COLUMNS:         # small: finish exactly on the active rows
-        act = np.flatnonzero(np.array(sol.s)[Eq.shape[0]:] <= config.ACTIVE_TOL)
-        xp, kkt_p, ok = _polish(problem, xhat, x, active=act, max_iter=8)
-        if ok and problem.violation(xp) <= config.SAMPLE_VIOLATION and (
-                np.linalg.norm(xp - xhat) <= np.linalg.norm(x - xhat) + config.QP_TOL):
-            x, kkt, viol = xp, kkt_p, problem.violation(xp)
-            method += " + exact active-set finish (KKT verified)"
-    d = float(np.linalg.norm(x - xhat))
-    return DistanceResult(absolute=d, relative=d / (problem.force_scale
-                                                   * np.sqrt(max(problem.n_contacts, 1))),
-                          nearest=x, max_violation=viol, kkt_residual=kkt,
-                          method=method + ", KKT and feasibility checked")
+    if status not in ("Solved", "AlmostSolved"):
+        return status, x, np.inf, None, sol.iterations
+    kkt = float(np.linalg.norm((x - xhat) + C.T @ np.array(sol.z))
+                / max(np.linalg.norm(x - xhat), 1.0))
+    active = np.flatnonzero(np.array(sol.s)[Eq.shape[0]:] <= config.ACTIVE_TOL)
+    return "Solved", x, kkt, active, sol.iterations
 
 
 def weighted_problem(problem: StaticsProblem, kn, kt):
