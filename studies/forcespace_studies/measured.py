@@ -377,6 +377,13 @@ def _figure(cond, out) -> None:
                 hi = [c.get(f"{key}_hi", np.nan) for c in g]
                 ax.errorbar(lv, y, yerr=[np.subtract(y, lo), np.subtract(hi, y)], label=lab,
                             capsize=2, **style)
+            only = [c for c in cond if c["mu"] == mu and c["drop"] == drop and c["level"] == 0]
+            if drop and only:          # the weakest dropped, no noise: a level of its own
+                for ax, key in zip(axes[:2], ("distance", "truth_inside")):
+                    if only[0].get(key) is not None:
+                        ax.axhline(only[0][key], color=f"C{i}", lw=0.8, ls=":",
+                                   label=f"$\\mu = {mu:g}$, weakest {drop:.0%} dropped, "
+                                         "no noise")
     axes[0].set(xscale="log", yscale="log", xlabel="noise [% of <Fn>]",
                 ylabel=r"distance to $S$ / $\langle F_n\rangle$ (rms per contact)",
                 title="distance to S")
