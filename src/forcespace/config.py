@@ -75,6 +75,8 @@ RANGE_FLAT_ROW = 1e-13      # [1] |G_i N| below this: row i is constant on S's a
 HULL_RANGES_MAX_DIM = 4000  # [dimensions] up to this dim S, the per-contact ranges of a large
                             # problem (SWEEP_MIN_COLUMNS and up) are asked in the affine hull's
                             # coordinates (dense rows x dim S: 4000 x 4000 doubles = 128 MB)
+SIMILAR_ORDER_MAX_WORK = 2e10  # [flops] of the greedy nearest-direction order of the range LPs
+                            # (1000-disk frame: 2e8); above, a cheaper order (leading direction)
 REDUCED_LP_MAX_DIM = 200    # [dimensions] up to this dim S, the range LPs of the varying test
                             # are asked in the affine hull's d coordinates, not the 2m forces
 UNBOUNDED_TOL = 1e-7        # [1] recession-cone LP optimum above this: S is unbounded
