@@ -35,16 +35,14 @@ from .bench_engine import _children_cpu, log
 
 FRAME = "studies/packings/paper_fast_n1000_mu0.5_s1.h5"
 BUDGET = {"check": 30.0, "check_sampled": 180.0}     # [CPU s] issue 41
-CLI = ("import sys, importlib.metadata as m; m.entry_points = lambda **kw: []; "
-       "from forcespace.cli import main; sys.exit(main(sys.argv[1:]))")
 
 
 def run(args) -> tuple[float, float, str]:
     """(CPU s, wall s, stdout) of one forcespace command in a child process."""
     env = dict(os.environ, OMP_NUM_THREADS="1")
     c0, w0 = _children_cpu(), time.perf_counter()
-    res = subprocess.run([sys.executable, "-c", CLI, *args], capture_output=True, text=True,
-                         env=env)
+    res = subprocess.run([sys.executable, "-m", "forcespace.cli", *args], capture_output=True,
+                         text=True, env=env)
     if res.returncode != 0:
         raise RuntimeError(f"forcespace {args[0]} exited {res.returncode}: {res.stderr[-400:]}")
     return _children_cpu() - c0, time.perf_counter() - w0, res.stdout
