@@ -14,7 +14,8 @@ No other module, no private (underscore) name, and no dynamic import of either. 
 imported on first use (``import forcespace.extend`` stays light); each is documented where
 it is defined. The groups, in the order of the data's path:
 
-* model      boundary and scene records; wall codes of a packing's contacts
+* model      boundary and scene records; wall codes of a packing's contacts; what a
+             measured network carries (``Measurement``)
 * engine     the protocol below ``jam``: a static solve or the dynamics of a given
              configuration, a point force on a settled layer
 * kernels    the engine's numba kernels and their records, for the engine's benchmarks
@@ -23,7 +24,8 @@ it is defined. The groups, in the order of the data's path:
              projections and distances, the elastic selection, point-force limits
 * sampling   chains of an ensemble
 * measures   the point-force rearrangement
-* io         atomic files, locks, output directories, JSON, the code version stamp
+* io         atomic files, locks, output directories, JSON, the code version stamp;
+             writers of forcespace's packings as measured frames (CSV pair, PeGS, LAMMPS)
 * figures    saving figures; the axis labels of the quantities
 """
 from importlib import import_module
@@ -35,6 +37,7 @@ _SURFACE = {
     "parse_scene_text": ("model.scene", "parse_scene_text"),
     "BOTTOM": ("model.walls", "BOTTOM"), "TOP": ("model.walls", "TOP"),
     "LEFT": ("model.walls", "LEFT"), "RIGHT": ("model.walls", "RIGHT"),
+    "WALL": ("model.walls", "WALL"), "Measurement": ("model.measurement", "Measurement"),
     # engine
     "build_packing": ("engine.protocol", "build_packing"),
     "make_bodies": ("engine.protocol", "make_bodies"),
@@ -74,6 +77,9 @@ _SURFACE = {
     "clean_stale_temps": ("io.outputs", "clean_stale_temps"),
     "dumps": ("io.jsonfile", "dumps"), "jsonable": ("io.jsonfile", "jsonable"),
     "write_json": ("io.jsonfile", "write_json"),
+    "write_csv_pair": ("io.readers", "write_csv_pair"), "write_pegs": ("io.readers",
+                                                                     "write_pegs"),
+    "write_lammps_dump": ("io.readers", "write_lammps_dump"),
     "progress": ("progress", "progress"),
     # figures
     "save_figure": ("io.figures", "save_figure"), "LABELS": ("plot", "LABELS"),

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from forcespace import read_packing
-from forcespace.io.readers import write_csv_pair
+from forcespace.extend import write_csv_pair
 
 from .bench_engine import _children_cpu, log
 

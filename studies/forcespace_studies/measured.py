@@ -31,14 +31,12 @@ from pathlib import Path
 import numpy as np
 
 import forcespace as fs
-from forcespace.io.readers import (read_csv_pair, read_lammps_dump, read_pegs, write_csv_pair,
-                                   write_lammps_dump, write_pegs)
-from forcespace.model.frame import Region, frame_problem
-from forcespace.model.measurement import Measurement
-from forcespace.space.measured import Measured
-from forcespace.sweep import Task
+from forcespace import (Measured, Region, frame_problem, read_csv_pair, read_lammps_dump,
+                        read_pegs)
+from forcespace.extend import Measurement, write_csv_pair, write_lammps_dump, write_pegs
 
 from .common import shared_packing
+from .runner import Task
 
 FORMATS = ("csv", "pegs", "lammps")
 PIXEL = 0.05              # [R per pixel] of the PeGS frames (disks 20-40 pixels across)
@@ -358,7 +356,7 @@ def _text(rt, cond) -> str:
 def _figure(cond, out) -> None:
     from matplotlib.figure import Figure
 
-    from forcespace.plot import save_figure
+    from forcespace.extend import save_figure
 
     fig = Figure(figsize=(13.5, 4.4))
     axes = fig.subplots(1, 3)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from ..cli import print_json, print_result
+from .printing import print_json, print_result
 from ..errors import InputError
 
 
