@@ -16,8 +16,8 @@ The public API (``import forcespace as fs``)::
     slice_problem(packing, height)    the paper's slice: S of its interior contacts
     full_problem(packing)             the whole packing (bottom plate a support)
     plate_problem(packing)            the whole packing under a load-controlled plate
-    read_csv_pair, read_pegs, read_lammps_dump   a measured frame (another code, an
-                                      experiment) -> Packing with its measurement
+    read_csv_pair, read_pegs, read_pegs2, read_lammps_dump   a measured frame (another
+                                      code, an experiment) -> Packing with its measurement
     frame_problem(packing, region)    S of a frame's region ("rim=1", "all", Region(...))
     Measured(...).compute(problem)    a measured network against S: imbalance, Coulomb,
                                       distance, nearest network, ranges, empty S relaxed
@@ -56,7 +56,7 @@ _LAZY = {
     "slice_problem": "model.problem", "full_problem": "model.problem",
     "plate_problem": "model.problem", "StaticsProblem": "model.problem",
     "frame_problem": "model.frame", "Region": "model.frame",
-    "read_csv_pair": "io.readers", "read_pegs": "io.readers",
+    "read_csv_pair": "io.readers", "read_pegs": "io.readers", "read_pegs2": "io.readers",
     "read_lammps_dump": "io.readers", "Measured": "space.measured",
     "jam": "engine.protocol",
     "ForceSpace": "space.force_space",

@@ -77,8 +77,8 @@ _SURFACE = {
     "clean_stale_temps": ("io.outputs", "clean_stale_temps"),
     "dumps": ("io.jsonfile", "dumps"), "jsonable": ("io.jsonfile", "jsonable"),
     "write_json": ("io.jsonfile", "write_json"),
-    "write_csv_pair": ("io.readers", "write_csv_pair"), "write_pegs": ("io.readers",
-                                                                     "write_pegs"),
+    "write_csv_pair": ("io.readers", "write_csv_pair"),
+    "write_pegs": ("io.readers", "write_pegs"), "write_pegs2": ("io.readers", "write_pegs2"),
     "write_lammps_dump": ("io.readers", "write_lammps_dump"),
     "progress": ("progress", "progress"),
     # figures

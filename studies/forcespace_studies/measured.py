@@ -3,12 +3,13 @@
 Two kinds of task, each on one jammed packing (bundled scene, mu, seed):
 
 * ``rt_*`` -- the round trip of every reader: the packing written as a CSV pair, a PeGS
-  frame (pixels, y down, both estimates of a contact equal) and a LIGGGHTS dump pair
-  (:mod:`forcespace.io.readers`), read back, and S of the same region compared with the
-  native file's: dim S and every contact's range of fn and ft (contacts matched by their
-  two disks; max |difference| in <Fn>). Region: the paper's slice for the formats with a
-  period (CSV, LAMMPS); for PeGS (an image has no period, its writer leaves the contacts
-  across the periodic seam out) the slice minus the disks with such a contact, on both.
+  frame in the matrix layout and in PeGS2's own files (pixels, y down, both estimates of
+  a contact equal) and a LIGGGHTS dump pair (:mod:`forcespace.io.readers`), read back,
+  and S of the same region compared with the native file's: dim S and every contact's
+  range of fn and ft (contacts matched by their two disks; max |difference| in <Fn>).
+  Region: the paper's slice for the formats with a period (CSV, LAMMPS); for PeGS (an
+  image has no period, its writers leave the contacts across the periodic seam out) the
+  slice minus the disks with such a contact, on both.
 * ``noise_*`` -- the jammed network as a measurement: Gaussian noise of ``levels`` x <Fn>
   added to fn and ft of every force-bearing contact (<Fn> the jammed mean), with and
   without the weakest ``drop`` fraction of the force-bearing contacts removed (a
@@ -32,13 +33,14 @@ import numpy as np
 
 import forcespace as fs
 from forcespace import (Measured, Region, frame_problem, read_csv_pair, read_lammps_dump,
-                        read_pegs)
-from forcespace.extend import Measurement, write_csv_pair, write_lammps_dump, write_pegs
+                        read_pegs, read_pegs2)
+from forcespace.extend import (Measurement, write_csv_pair, write_lammps_dump, write_pegs,
+                               write_pegs2)
 
 from .common import shared_packing
 from .runner import Task
 
-FORMATS = ("csv", "pegs", "lammps")
+FORMATS = ("csv", "pegs", "pegs2", "lammps")
 PIXEL = 0.05              # [R per pixel] of the PeGS frames (disks 20-40 pixels across)
 RT_TOL = 1e-9             # [<Fn>] a round trip keeps S: equal dim S, every range within this
 INSIDE_TOL = 1e-6         # [<Fn>] a true force lies in its range to this (config.VARY_TOL)
@@ -92,6 +94,11 @@ def write_format(p, fmt: str, directory):
         return lambda: read_pegs(files["particles"], pixel_scale=PIXEL, mu=p.mu,
                                  wall_mu=p.plate_mu, edge_column=4, length_unit="R",
                                  force_unit="F0")
+    if fmt == "pegs2":
+        files = write_pegs2(p, d, pixel_scale=PIXEL)["paths"]
+        return lambda: read_pegs2(files["adjacency"], files["positions"], pixel_scale=PIXEL,
+                                  mu=p.mu, wall_mu=p.plate_mu, length_unit="R",
+                                  force_unit="F0")
     atoms, contacts = write_lammps_dump(p, d)
     return lambda: read_lammps_dump(atoms, contacts, mu=p.mu, wall_mu=p.plate_mu,
                                     length_unit="R", force_unit="F0")
@@ -111,7 +118,7 @@ def round_trip(p, fmt: str, directory, height: float) -> dict:
     docstring): {format, region_disks, dim_native, dim_read, n_contacts_native,
     n_contacts_read, matched, max_range_diff (<Fn>), same (bool)}."""
     region = slice_disks(p, height)
-    if fmt == "pegs":
+    if fmt.startswith("pegs"):
         region = np.setdiff1d(region, seam_disks(p))
     t0 = time.process_time()
     q = write_format(p, fmt, directory)()
@@ -245,8 +252,9 @@ def _verdicts(rt, cond):
     bad = [r for r in rt if not r["same"]]
     worst = max((r["max_range_diff"] for r in rt), default=float("nan"))
     verdicts.append(Verdict(
-        "measured", "Round trip: written as a CSV pair, a PeGS frame and a LIGGGHTS dump and "
-        "read back, a jammed packing gives the native file's S", f"{len(rt) - len(bad)} of "
+        "measured", "Round trip: written as a CSV pair, a PeGS frame (the matrices and "
+        "PeGS2's own files) and a LIGGGHTS dump and read back, a jammed packing gives the "
+        "native file's S", f"{len(rt) - len(bad)} of "
         f"{len(rt)} (packing, format) pairs: equal dim S, every range within {worst:.1e} <Fn>",
         "supported" if rt and not bad else "not supported" if rt else "not decidable",
         kind="ours", rule=f"dim S equal and max |range difference| <= {RT_TOL:g} <Fn> "
@@ -319,11 +327,11 @@ def summarize(results: list[dict], out) -> dict:
 
 def _text(rt, cond) -> str:
     lines = [
-        "Readers of measured frames (`forcespace convert csv|pegs|lammps`) and the check of a "
+        "Readers of measured frames (`forcespace convert csv|pegs|pegs2|lammps`) and the check of a "
         "measured network against S (`forcespace check`, `forcespace.space.measured."
         "Measured`). **Round trip**: each jammed packing written in each format and read "
         "back; S of the same region compared with the native file's (the paper's slice; for "
-        "PeGS, whose frames have no period, the slice minus the disks with a contact across "
+        "PeGS and PeGS2, whose frames have no period, the slice minus the disks with a contact across "
         "the periodic seam, on both).",
         "", "| mu | format | pairs | equal dim S | max range difference [<Fn>] |",
         "| --- | --- | --- | --- | --- |"]

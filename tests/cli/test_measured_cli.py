@@ -7,7 +7,7 @@ import pytest
 
 import forcespace as fs
 from forcespace import cli
-from forcespace.io.readers import write_csv_pair
+from forcespace.io.readers import write_csv_pair, write_pegs2
 
 from paths import DATA
 
@@ -39,6 +39,22 @@ def test_convert_then_check(frame, capsys, tmp_path):
     assert (tmp_path / "check.png").stat().st_size > 0 and (tmp_path / "check.pdf").exists()
 
 
+def test_convert_pegs2_frame(frame, capsys, tmp_path):
+    """PeGS2's own files (adjacency list, particle positions) through `convert pegs2`: the
+    frame's contacts not across the periodic seam, the pixel scale in the provenance."""
+    _, p = frame
+    written = write_pegs2(p, tmp_path / "pegs2", pixel_scale=0.05, frame=3)
+    files = written["paths"]
+    out = tmp_path / "frame.h5"
+    assert cli.main(["convert", "pegs2", str(files["adjacency"]), str(files["positions"]),
+                     "--pixel-scale", "0.05", "--frame", "3", "--mu", "1", "-o",
+                     str(out)]) == 0
+    assert "from pegs2" in capsys.readouterr().out
+    q = fs.read_packing(out)
+    assert q.n_contacts == p.n_contacts - written["left_out"].size
+    assert q.measurement.provenance["pixel_scale"] == 0.05
+
+
 def test_check_an_engine_packing(capsys):
     assert cli.main(["check", str(DATA / "paper_mu1_seed2.h5"), "--region", "slice=28",
                      "--no-ranges", "--quiet"]) == 0
@@ -48,6 +64,8 @@ def test_check_an_engine_packing(capsys):
 
 @pytest.mark.parametrize("argv, fragment", [
     (["convert", "csv", "nope.csv", "nope2.csv", "--mu", "1", "-o", "x.h5"], "does not exist"),
+    (["convert", "pegs2", "adj.txt", "pos.txt", "--mu", "1", "--pixel-scale", "0.1", "-o",
+      "x.h5"], "does not exist"),
     (["check", "nope.h5"], "does not exist"),
     (["check", str(DATA / "paper_mu1_seed2.h5"), "--region", "ring=3"], "--region"),
     (["check", str(DATA / "paper_mu1_seed2.h5"), "--wall-mu", "0.3"], "needs --walls unknown"),

@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 
 import forcespace as fs
-from forcespace.io.readers import (read_csv_pair, read_lammps_dump, read_pegs, write_csv_pair,
-                                   write_lammps_dump, write_pegs)
+from forcespace.io.readers import (read_csv_pair, read_lammps_dump, read_pegs, read_pegs2,
+                                   write_csv_pair, write_lammps_dump, write_pegs, write_pegs2)
 from forcespace.model.walls import BOTTOM, TOP
 
 SCALE = 0.05
@@ -36,9 +36,10 @@ def write_all(d: Path) -> dict:
     p = small_frame()
     csv_parts, csv_cont = write_csv_pair(p, d / "csv")
     pegs = write_pegs(p, d / "pegs", pixel_scale=SCALE)["paths"]
+    pegs2 = write_pegs2(p, d / "pegs2", pixel_scale=SCALE)["paths"]
     atoms, cont = write_lammps_dump(p, d / "lammps")
-    return {"particles": csv_parts, "contacts": csv_cont, "pegs": pegs, "atoms": atoms,
-            "dump": cont}
+    return {"particles": csv_parts, "contacts": csv_cont, "pegs": pegs, "pegs2": pegs2,
+            "atoms": atoms, "dump": cont}
 
 
 def read(fmt: str, f: dict, **kw):
@@ -47,6 +48,9 @@ def read(fmt: str, f: dict, **kw):
     if fmt == "pegs":
         return read_pegs(f["pegs"]["particles"], **{"pixel_scale": SCALE, "mu": 0.5,
                                                       "edge_column": 4, **kw})
+    if fmt == "pegs2":
+        return read_pegs2(f["pegs2"]["adjacency"], f["pegs2"]["positions"],
+                          **{"pixel_scale": SCALE, "mu": 0.5, **kw})
     return read_lammps_dump(f["atoms"], f["dump"], **{"mu": 0.5, **kw})
 
 
@@ -120,6 +124,30 @@ CASES = [
     ("pegs", "wall contact without edge flag", lambda f: _row(f["pegs"]["particles"], 0, 4, "0"),
      "needs its edge flag"),
     ("pegs", "no pixel scale", "pixel_scale", "length units per pixel"),
+    # ---- PeGS2's own files
+    ("pegs2", "missing positions", lambda f: f["pegs2"]["positions"].unlink(), "does not exist"),
+    ("pegs2", "adjacency columns", lambda f: _lines(f["pegs2"]["adjacency"], lambda l: [
+        x.rsplit(",", 1)[0] for x in l]), "frame, id1, id2, fTan, fNorm"),
+    ("pegs2", "positions columns", lambda f: _lines(f["pegs2"]["positions"], lambda l: [
+        x.rsplit(",", 1)[0] for x in l]), "frame, id, x, y, r, edge"),
+    ("pegs2", "two frames, none chosen", lambda f: _lines(f["pegs2"]["adjacency"], lambda l: l + [
+        "2" + l[0][1:]]), "say which"),
+    ("pegs2", "frame not in the file", "frame=7", "is not in the file"),
+    ("pegs2", "contact id not a particle", lambda f: _row(f["pegs2"]["adjacency"], 0, 2, "99"),
+     "must be the id of a particle"),
+    ("pegs2", "id not an integer", lambda f: _row(f["pegs2"]["adjacency"], 0, 1, "1.5"),
+     "integer >= 1"),
+    ("pegs2", "estimate listed twice", lambda f: _lines(f["pegs2"]["adjacency"], lambda l: l + [
+        l[0]]), "listed once"),
+    ("pegs2", "NaN force", lambda f: _row(f["pegs2"]["adjacency"], 0, 4, "NaN"), "finite"),
+    ("pegs2", "negative radius", lambda f: _row(f["pegs2"]["positions"], 1, 4, "-20"),
+     "radius must be > 0"),
+    ("pegs2", "non-touching disks", lambda f: _row(f["pegs2"]["positions"], 3, 2, "119"),
+     "do not touch"),
+    ("pegs2", "wall contact without edge flag", lambda f: _row(f["pegs2"]["positions"], 0, 5,
+                                                               "0"), "needs its edge flag"),
+    ("pegs2", "edge flag not a wall", lambda f: _row(f["pegs2"]["positions"], 0, 5, "3"),
+     "must be 0, +-1 or +-2"),
     # ---- LAMMPS dump
     ("lammps", "missing file", lambda f: f["dump"].unlink(), "does not exist"),
     ("lammps", "atom dump given twice", lambda f: f["dump"].write_text(f["atoms"].read_text()),
@@ -144,8 +172,9 @@ def spoil_and_read(d: Path, fmt: str, spoil):
     """Write the valid files into ``d``, spoil them, read: the InputError it raises."""
     f = write_all(d)
     kw = {}
-    if isinstance(spoil, str):
-        kw = {spoil: None}
+    if isinstance(spoil, str):          # a keyword: NAME (not given) or NAME=VALUE
+        name, _, value = spoil.partition("=")
+        kw = {name: float(value) if value else None}
     else:
         spoil(f)
     return read(fmt, f, **kw)

@@ -1,4 +1,4 @@
-"""Readers of measured frames (CSV pair, PeGS, LAMMPS dump): bad inputs, conventions, the
+"""Readers of measured frames (CSV pair, PeGS matrices, PeGS2 lists, LAMMPS dump): bad inputs, conventions, the
 packing file's provenance, and the round trip on jammed packings (same S as the native
 file)."""
 import hashlib
@@ -10,7 +10,7 @@ import pytest
 import forcespace as fs
 from forcespace.errors import InputError
 from forcespace.io.packing_file import read_packing, write_packing
-from forcespace.io.readers import read_pegs, write_pegs
+from forcespace.io.readers import read_pegs, read_pegs2, write_pegs, write_pegs2
 from forcespace_studies.measured import FORMATS, round_trip
 
 from reader_cases import CASES, SCALE, read, small_frame, spoil_and_read, write_all
@@ -66,6 +66,42 @@ def test_pegs_tangential_sign(tmp_path):
     assert np.allclose(on_a, f * np.array([np.cos(direction), -np.sin(direction)]))
     q2 = read_pegs(d / "f_ParticleData.dlm", pixel_scale=0.01, mu=1.0, y_down=False)
     assert np.isclose(q2.ft[0], -f * np.sin(alpha))  # y already up: the other sense
+
+
+@pytest.mark.parametrize("layout", ("positions", "centers"))
+def test_pegs2_tangential_sign(tmp_path, layout):
+    """PeGS2's list (frame, id1, id2, fTan, fNorm), one row per particle's estimate, reads
+    as the matrices do: the same fn, ft and sign as test_pegs_tangential_sign."""
+    f, alpha = 2.0, np.radians(30.0)
+    d = Path(tmp_path)
+    fn, ft = float(f * np.cos(alpha)), float(f * np.sin(alpha))
+    (d / "img_Adjacency.txt").write_text(f"3,1,2,{ft!r},{fn!r}\n3,2,1,{ft!r},{fn!r}\n")
+    if layout == "positions":
+        (d / "pos.txt").write_text("3,1,100,100,20,0\n3,2,140,100,20,0\n")
+    else:
+        (d / "pos.txt").write_text("100,100,20,0\n140,100,20,0\n")
+    q = read_pegs2(d / "img_Adjacency.txt", d / "pos.txt", pixel_scale=0.01, mu=1.0)
+    assert q.n_contacts == 1 and q.a[0] == 0 and np.allclose(q.normal[0], (1.0, 0.0))
+    assert np.isclose(q.fn[0], fn) and np.isclose(q.ft[0], ft)
+    assert np.allclose(-q.contact_forces()[0], f * np.array([np.cos(np.pi - alpha),
+                                                              -np.sin(np.pi - alpha)]))
+    assert q.measurement.provenance["two_estimates"] == 1
+
+
+def test_pegs2_reads_as_the_matrix_layout(tmp_path):
+    """One frame written as PeGS2's list and as the matrices, the second estimates noisy:
+    both readers give the same contacts, forces, uncertainties and wall normals."""
+    p = small_frame()
+    noise = np.zeros((p.n_contacts, 2))
+    noise[0], noise[2] = (0.2, -0.04), (-0.1, 0.3)
+    m = write_pegs(p, tmp_path / "m", pixel_scale=SCALE, noise=noise)["paths"]
+    lst = write_pegs2(p, tmp_path / "l", pixel_scale=SCALE, noise=noise, frame=4)["paths"]
+    a = read_pegs(m["particles"], pixel_scale=SCALE, mu=0.5, edge_column=4)
+    b = read_pegs2(lst["adjacency"], lst["positions"], pixel_scale=SCALE, mu=0.5, frame=4)
+    for name in ("a", "b", "fn", "ft", "normal", "x", "y", "r"):
+        assert np.allclose(getattr(a, name), getattr(b, name), rtol=0, atol=1e-12), name
+    assert np.allclose(a.measurement.sigma, b.measurement.sigma)
+    assert b.measurement.provenance["frame"] == 4.0
 
 
 def test_pegs_two_estimates_averaged_with_uncertainty(tmp_path):

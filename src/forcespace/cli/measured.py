@@ -9,8 +9,8 @@ from ..errors import InputError
 
 
 def register(sub):
-    p = sub.add_parser("convert", help="read a measured frame (CSV pair, PeGS, LAMMPS dump) "
-                       "into a packing file",
+    p = sub.add_parser("convert", help="read a measured frame (CSV pair, PeGS, PeGS2, LAMMPS "
+                       "dump) into a packing file",
                        description="Read one frame of another code or an experiment into a "
                        "forcespace packing file that keeps the measured network and its "
                        "provenance (source files and their SHA-256, units, pixel scale, "
@@ -18,33 +18,7 @@ def register(sub):
                        "field, before anything is written.")
     fmt = p.add_subparsers(dest="format", metavar="FORMAT")
     fmt.required = True
-    q = fmt.add_parser("csv", help="particles.csv + contacts.csv (README: Bring your own "
-                       "packing)")
-    q.add_argument("particles", help="particles.csv: id, x, y, r [, boundary, fx, fy, torque]")
-    q.add_argument("contacts", help="contacts.csv: i, j, fn, ft [, nx, ny, px, py, sigma_fn, "
-                   "sigma_ft, image]")
-    q.add_argument("--width", type=float, default=None, metavar="W",
-                   help="period along x (the frame is periodic in x; default: not)")
-    q = fmt.add_parser("pegs", help="PeGS / PeGS2: *_ParticleData.dlm and its Norm/Tan/Binary "
-                       "weighted adjacency matrices")
-    q.add_argument("particle_data", help="the *_ParticleData.dlm file (the matrices beside it)")
-    q.add_argument("--pixel-scale", type=float, required=True, metavar="S",
-                   help="length units per pixel")
-    q.add_argument("--edge-column", type=int, default=None, metavar="K",
-                   help="ParticleData column (0-based) of PeGS2's edge flag (needed when the "
-                        "matrices carry the wall column)")
-    q.add_argument("--y-up", action="store_true",
-                   help="pixel y already points up (default: image coordinates, y down)")
-    q = fmt.add_parser("lammps", help="LIGGGHTS/LAMMPS atom dump + dump local of compute "
-                       "pair/gran/local")
-    q.add_argument("atoms", help="atom dump (id x y radius ...)")
-    q.add_argument("contacts", help="dump local of compute pair/gran/local")
-    q.add_argument("--keywords", default="id force force_normal force_tangential delta",
-                   help="the compute's keywords in order (default: the adapter's)")
-    q.add_argument("--wall", action="append", default=None, metavar="NAME:NX,NY",
-                   help="per-atom wall-force columns NAME[1] NAME[2] and the wall's normal into "
-                        "the atoms (repeatable; default f_force_wall:0,1 f_force_wallt:0,-1)")
-    q.add_argument("--step", type=int, default=None, help="timestep (default: the last in both)")
+    _format_parsers(fmt)
     for q in fmt.choices.values():
         q.add_argument("-o", "--output", required=True, help="packing file to write (HDF5)")
         q.add_argument("--mu", type=float, required=True, help="Coulomb coefficient of the "
@@ -90,6 +64,49 @@ def register(sub):
     p.set_defaults(func=cmd_check)
 
 
+def _format_parsers(fmt):
+    """The readers of `convert`, one subcommand each."""
+    q = fmt.add_parser("csv", help="particles.csv + contacts.csv (README: Bring your own "
+                       "packing)")
+    q.add_argument("particles", help="particles.csv: id, x, y, r [, boundary, fx, fy, torque]")
+    q.add_argument("contacts", help="contacts.csv: i, j, fn, ft [, nx, ny, px, py, sigma_fn, "
+                   "sigma_ft, image]")
+    q.add_argument("--width", type=float, default=None, metavar="W",
+                   help="period along x (the frame is periodic in x; default: not)")
+    q = fmt.add_parser("pegs", help="PeGS matrices: *_ParticleData.dlm and its Norm/Tan/Binary "
+                       "weighted adjacency matrices")
+    q.add_argument("particle_data", help="the *_ParticleData.dlm file (the matrices beside it)")
+    q.add_argument("--pixel-scale", type=float, required=True, metavar="S",
+                   help="length units per pixel")
+    q.add_argument("--edge-column", type=int, default=None, metavar="K",
+                   help="ParticleData column (0-based) of PeGS2's edge flag (needed when the "
+                        "matrices carry the wall column)")
+    q.add_argument("--y-up", action="store_true",
+                   help="pixel y already points up (default: image coordinates, y down)")
+    q = fmt.add_parser("pegs2", help="PeGS2's own files: an adjacency list and the particle "
+                       "positions")
+    q.add_argument("adjacency", help="*_Adjacency.txt or Adjacency_list.txt (frame, id1, id2, "
+                   "fTan, fNorm; id2 = -1 the wall)")
+    q.add_argument("positions", help="particle_positions.txt (frame, id, x, y, r, edge) or "
+                   "*_centers.txt (x, y, r, edge)")
+    q.add_argument("--frame", type=float, default=None,
+                   help="which frame (default: the only one in the files)")
+    q.add_argument("--pixel-scale", type=float, required=True, metavar="S",
+                   help="length units per pixel")
+    q.add_argument("--y-up", action="store_true",
+                   help="pixel y already points up (default: image coordinates, y down)")
+    q = fmt.add_parser("lammps", help="LIGGGHTS/LAMMPS atom dump + dump local of compute "
+                       "pair/gran/local")
+    q.add_argument("atoms", help="atom dump (id x y radius ...)")
+    q.add_argument("contacts", help="dump local of compute pair/gran/local")
+    q.add_argument("--keywords", default="id force force_normal force_tangential delta",
+                   help="the compute's keywords in order (default: the adapter's)")
+    q.add_argument("--wall", action="append", default=None, metavar="NAME:NX,NY",
+                   help="per-atom wall-force columns NAME[1] NAME[2] and the wall's normal into "
+                        "the atoms (repeatable; default f_force_wall:0,1 f_force_wallt:0,-1)")
+    q.add_argument("--step", type=int, default=None, help="timestep (default: the last in both)")
+
+
 def _walls(specs):
     if specs is None:
         return None
@@ -131,6 +148,12 @@ def cmd_convert(args) -> int:
         packing = readers.read_pegs(args.particle_data, pixel_scale=args.pixel_scale,
                                     edge_column=args.edge_column, y_down=not args.y_up,
                                     **common)
+    elif args.format == "pegs2":
+        inputs = [args.adjacency, args.positions]
+        check_output_file(args.output, inputs=inputs)
+        packing = readers.read_pegs2(args.adjacency, args.positions, frame=args.frame,
+                                     pixel_scale=args.pixel_scale, y_down=not args.y_up,
+                                     **common)
     else:
         inputs = [args.atoms, args.contacts]
         check_output_file(args.output, inputs=inputs)
