@@ -368,8 +368,8 @@ def summarize(results: list[dict], out) -> dict:
 
 def _text(rt, cond) -> str:
     lines = [
-        "Readers of measured frames (`forcespace convert csv|pegs|pegs2|lammps`) and the check of a "
-        "measured network against S (`forcespace check`, `forcespace.space.measured."
+        "Readers of measured frames (`forcespace convert csv|pegs|pegs2|lammps`) and the check "
+        "of a measured network against S (`forcespace check`, `forcespace.space.measured."
         "Measured`). **Round trip**: each jammed packing written in each format and read "
         "back; S of the same region compared with the native file's (the paper's slice; for "
         "PeGS and PeGS2, whose frames have no period, the slice minus the disks with a "

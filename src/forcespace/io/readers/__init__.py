@@ -14,8 +14,8 @@ uncertainty, the source files and their hashes, units, pixel scale, conventions)
   pair/gran/local`` with the atom dump (:mod:`.lammps`).
 
 Each refuses a bad input with one line naming the file, the field and what is allowed,
-before any analysis. The writers (``write_csv_pair``, ``write_pegs``,
-``write_pegs2``, ``write_lammps_dump``) write forcespace's own packings in each format (exports, tests).
+before any analysis. The writers (``write_csv_pair``, ``write_pegs``, ``write_pegs2``,
+``write_lammps_dump``) write forcespace's own packings in each format (exports, tests).
 """
 from .csv_pair import read_csv_pair, write_csv_pair
 from .lammps import read_lammps_dump, write_lammps_dump

@@ -220,8 +220,8 @@ def _frame(pp, mpaths, ids, xyr_px, edge, matrices, *, s, y_down, mu, wall_mu, g
            units, **extra) -> Packing:
     """The packing of a PeGS frame from its particles (ids, (n, 3) x, y, r in pixels,
     checked) and its (Binary, Norm, Tan) matrices (M x M or (M + 1) x (M + 1), M the
-    largest id);
-    ``edge()``: the particles' edge flags, asked for only when a wall contact needs them."""
+    largest id); ``edge()``: the particles' edge flags, asked for only when a wall contact
+    needs them."""
     B, N, T = matrices
     sign = -1.0 if y_down else 1.0
     x, y, r = xyr_px[:, 0] * s, sign * xyr_px[:, 1] * s, xyr_px[:, 2] * s
