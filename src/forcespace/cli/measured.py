@@ -215,7 +215,8 @@ def cmd_check(args) -> int:
     if m is not None:
         out["measurement"] = m.summary()
     if args.figure:
-        from ..plot import plot_measured, save_figure
+        from ..io.figures import save_figure
+        from ..plot import plot_measured
         fig = plot_measured(packing, check)
         save_figure(fig, args.figure)
         out["figure"] = str(args.figure)
