@@ -347,7 +347,8 @@ def summarize(results: list[dict], out) -> dict:
     write_csv(out / "measured_noise.csv", noise, NOISE_KEYS)
     cond = by_condition(noise)
     if cond:
-        write_csv(out / "measured_by_condition.csv", cond, list(cond[0]))
+        keys = list(dict.fromkeys(k for c in cond for k in c))   # every condition's columns
+        write_csv(out / "measured_by_condition.csv", cond, keys)
     verdicts = _verdicts(rt, cond)
     figures = []
     if cond:
