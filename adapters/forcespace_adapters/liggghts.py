@@ -479,29 +479,62 @@ def run_deck(directory, binary: str | None = None, timeout: float | None = None,
 
 def _run_streaming(cmd, d: Path, timeout, on_line) -> int:
     """Run ``cmd`` in ``d``, its output into ``d/screen.txt`` line by line, each line also
-    to ``on_line``; LiggghtsError after ``timeout`` seconds (the process killed)."""
+    to ``on_line``; LiggghtsError after ``timeout`` seconds (its process group killed).
+
+    The run is its own session, and output is read with a deadline: a killed
+    LIGGGHTS can leave OpenMPI's singleton daemon (orted) holding the pipe open, and
+    a plain read then never ends (seen under load with a 0.2 s limit)."""
     deadline = None if timeout is None else time.monotonic() + timeout
+    killed = False
     with open(d / "screen.txt", "w") as out, subprocess.Popen(
             cmd, cwd=d, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL, text=True, errors="replace") as proc:
-        timer = None
-        if deadline is not None:
-            import threading
-            timer = threading.Timer(timeout, proc.kill)
-            timer.start()
+            stdin=subprocess.DEVNULL, start_new_session=True) as proc:
         try:
-            for line in proc.stdout:
+            for line in _lines_until(proc, deadline):
                 out.write(line)
                 on_line(line)
-            rc = proc.wait()
+        except TimeoutError:
+            killed = True
+            _kill_session(proc)
         finally:
-            if timer is not None:
-                timer.cancel()
             on_line(None)
-    if deadline is not None and time.monotonic() >= deadline and rc != 0:
+        rc = proc.wait()
+    if killed:
         raise LiggghtsError(f"{d}: LIGGGHTS exceeded the time limit of {timeout} s "
                             f"(see {d / 'screen.txt'})")
     return rc
+
+
+def _lines_until(proc, deadline):
+    """The text lines of ``proc``'s stdout until end of file (TimeoutError once
+    ``deadline``, a time.monotonic() value or None, passes first)."""
+    import select
+
+    fd, pending = proc.stdout.fileno(), b""
+    while True:
+        wait = None if deadline is None else deadline - time.monotonic()
+        if wait is not None and wait <= 0:
+            raise TimeoutError
+        if not select.select([fd], [], [], wait)[0]:
+            continue
+        chunk = os.read(fd, 1 << 16)
+        if not chunk:
+            break
+        *lines, pending = (pending + chunk).split(b"\n")
+        for raw in lines:
+            yield raw.decode(errors="replace") + "\n"
+    if pending:
+        yield pending.decode(errors="replace")
+
+
+def _kill_session(proc) -> None:
+    """SIGKILL every process of ``proc``'s session (LIGGGHTS and what MPI started)."""
+    import signal
+
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        proc.kill()
 
 
 def _deck_progress(d: Path, show: bool):

@@ -133,3 +133,22 @@ def test_a_run_shows_its_steps_and_residual_and_a_time_limit_kills_it(packing, t
     assert "FORCESPACE_DONE" in (d / "screen.txt").read_text()
     with pytest.raises(L.LiggghtsError, match="time limit of 0.2 s"):
         L.run_deck(d, timeout=0.2)
+
+
+def test_a_time_limit_ends_the_run_even_if_a_daemon_holds_its_output(tmp_path):
+    # a killed LIGGGHTS can leave OpenMPI's singleton daemon holding the output pipe;
+    # the run must still end at its time limit (a plain read waited for the daemon:
+    # a test run hung until it was killed by hand). Here a stand-in binary leaves a
+    # sleeper in its own session on the pipe.
+    import time
+    fake = tmp_path / "fake_liggghts"
+    fake.write_text("#!/bin/sh\necho 'LIGGGHTS (stand-in)'\nsetsid sleep 60 &\nexec sleep 60\n")
+    fake.chmod(0o755)
+    d = tmp_path / "deck"
+    d.mkdir()
+    (d / "in.liggghts").write_text("# stand-in\n")
+    t0 = time.monotonic()
+    with pytest.raises(L.LiggghtsError, match="time limit of 1 s"):
+        L.run_deck(d, binary=str(fake), timeout=1)
+    assert time.monotonic() - t0 < 20
+    assert "stand-in" in (d / "screen.txt").read_text()
