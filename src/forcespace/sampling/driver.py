@@ -12,7 +12,15 @@ and :class:`~forcespace.sampling.billiard.BilliardFrameWalk`, both on the templa
   (unit, description), checkpoint arrays, checkpoint attrs);
 * ``resume(ensemble_file)``: continue from a file's set-up and checkpoint instead;
 * ``draw(i)``: the i-th sample: (x (2m,) [F0], chain, violation / <Fn>);
-* ``state(n_total)``: the checkpoint (arrays, attrs) after the last accepted sample.
+* ``state(n_total)``: the checkpoint (arrays, attrs) after the last accepted sample
+  (random streams included: a draw that fails or is interrupted leaves no trace in it).
+
+While drawing, Ctrl-C only sets ``walk.interrupt`` (an
+:class:`~forcespace.engine.interrupts.InterruptFlag`; a SIGINT inside a numba kernel's
+dispatch can crash the process): it is honoured after the draw, or earlier where a walk
+checks the flag (the relax walk, between chunks of Gauss-Seidel sweeps); the samples
+drawn are appended, and the run stops with
+:class:`~forcespace.engine.interrupts.Interrupted` saying how to resume.
 
 :func:`run_walk` drives a walk to ``n`` samples in memory, or, given ``output``,
 into a resumable ensemble file (locked while written; samples appended at growing
@@ -26,6 +34,7 @@ import time
 import numpy as np
 
 from .. import config
+from ..engine.interrupts import Interrupted, deferred_sigint
 from ..errors import InputError, require_int
 from ..io import ensemble_file as ef
 from ..io.jsonfile import dumps
@@ -202,12 +211,15 @@ def _draw(walk, problem, stop, output, old, every, progress, t0) -> Ensemble:
         return X, c
 
     outcome = None if have < stop.n else stop.at_cap(have, samples)
-    with progress_bar(total=stop.n, desc=walk.sampler, unit="sample",
-                      disable=not progress) as bar:
+    with deferred_sigint() as interrupt, \
+            progress_bar(total=stop.n, desc=walk.sampler, unit="sample",
+                         disable=not progress) as bar:
+        walk.interrupt = interrupt
         bar.update(min(have, stop.n))
         try:
             for i in range(have, stop.n):
                 sink.add(*walk.draw(i))
+                interrupt.check()
                 bar.update(1)
                 if hasattr(walk, "postfix"):
                     bar.set_postfix(walk.postfix(), refresh=False)
@@ -217,6 +229,9 @@ def _draw(walk, problem, stop, output, old, every, progress, t0) -> Ensemble:
                 if stop.last and bar.total != stop.expected_total():
                     bar.total = stop.expected_total()     # the ETA to the target ESS
                     bar.refresh()
+        except Interrupted:    # Ctrl-C, honoured between draws or at a walk's safe point
+            sink.flush()
+            raise Interrupted(_where(have + len(sink.drawn), output)) from None
         except BaseException:
             sink.flush()       # finished samples are never lost
             raise
@@ -225,6 +240,13 @@ def _draw(walk, problem, stop, output, old, every, progress, t0) -> Ensemble:
     if sink.buffer or sink.drawn:
         sink.flush(dumps(ens.diagnostics))
     return ens
+
+
+def _where(k: int, output) -> str:
+    """Where an interrupted run stands: its samples and how it resumes."""
+    if output is None:
+        return f"after {k} samples (in memory, not kept)"
+    return f"{k} samples in {output}; rerun the same command to resume"
 
 
 def _ensemble(walk, problem, old, sink, status, message, output) -> Ensemble:

@@ -35,6 +35,7 @@ The walk is not proven to sample S uniformly.
 """
 from __future__ import annotations
 
+import copy
 import json
 import time
 
@@ -42,6 +43,7 @@ import numpy as np
 
 from .. import config
 from ..engine.frozen import frozen_contacts, relax
+from ..engine.interrupts import InterruptFlag
 from ..errors import InputError, NumericalError, require_int
 from ..model.problem import StaticsProblem
 from ..space.questions import check_bounded, check_feasible
@@ -66,13 +68,15 @@ class Relaxer:
         self.projector = Projector(p)   # exact projection of stalled relaxations onto S
 
     def relax(self, x, tol=config.SAMPLE_VIOLATION, chunk=200, max_sweeps=2_000_000, seed=0,
-              stall_sweeps=config.RELAX_STALL_SWEEPS):
+              stall_sweeps=config.RELAX_STALL_SWEEPS, interrupt=None):
         """Relax forces x (2m,) [F0] to an admissible network.
 
         Returns (x (2m,), RelaxResult, projected): ``projected`` is True when
         the relaxation stalled or hit ``max_sweeps`` and x is the exact
         projection of its end state onto S (see the module docstring).
-        Raises NumericalError if even the projection cannot be verified.
+        Raises NumericalError if even the projection cannot be verified;
+        Interrupted when ``interrupt`` (an InterruptFlag, checked after every
+        chunk of sweeps) was set.
         """
         rn = np.ascontiguousarray(x[0::2], dtype=float).copy()
         rt = np.ascontiguousarray(x[1::2], dtype=float).copy()
@@ -84,8 +88,9 @@ class Relaxer:
             out[1::2] = rt
             return self.problem.violation(out)
 
+        interrupt = interrupt or InterruptFlag()
         res = relax(self.system, rn, rt, violation, tol, max_sweeps, seed, chunk,
-                    stall_sweeps=stall_sweeps)
+                    stall_sweeps=stall_sweeps, on_chunk=lambda sweeps, v: interrupt.check())
         out[0::2] = rn
         out[1::2] = rt
         self.allowed = tol
@@ -125,9 +130,13 @@ class KickRelaxWalk:
 
     ``chains`` independent walks from the same relaxed start, sample i drawn by chain
     i % chains; chain c kicks with its own stream
-    (:func:`forcespace.streams.chain_generators`)."""
+    (:func:`forcespace.streams.chain_generators`). A draw kicks with a copy of its
+    chain's generator, kept only when the sample is accepted: the checkpoint's stream
+    state is always the one after the last stored sample, so a run interrupted (or
+    failed) in a draw resumes to the same chain as a run straight through."""
 
     sampler = "relax"
+    interrupt = InterruptFlag()     # set by run_walk: Ctrl-C between chunks of sweeps
 
     def __init__(self, problem: StaticsProblem, seed: int, tol: float, chunk: int,
                  max_sweeps: int, start, chains: int = 1):
@@ -180,14 +189,15 @@ class KickRelaxWalk:
 
     def draw(self, i: int):
         c = i % self.chains
-        xk = kick(self.x[c], self.problem.mu, self.problem.force_scale, self.rng[c])
+        rng = copy.deepcopy(self.rng[c])      # the chain's stream moves on acceptance only
+        xk = kick(self.x[c], self.problem.mu, self.problem.force_scale, rng)
         xn, res, projected = self.relaxer.relax(xk, self.tol, self.chunk, self.max_sweeps,
-                                                self.seed + 1 + i)
+                                                self.seed + 1 + i, interrupt=self.interrupt)
         v = self.problem.violation(xn)
         if not v <= self.relaxer.allowed:   # tol, or a projection's equilibrium floor
             raise NumericalError(f"relax sample {i} violates S by {v:.3e} x <Fn> "
                                  f"({res.message})")
-        self.x[c] = xn
+        self.x[c], self.rng[c] = xn, rng
         self.sweeps_total += res.sweeps
         if projected:
             self.projected.append(i)
