@@ -58,14 +58,14 @@ import json
 import os
 import shutil
 import subprocess
-import tempfile
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from forcespace.extend import check_output_dir, mark_run_dir
+from forcespace.extend import (check_output_dir, mark_run_dir, new_temp_dir,
+                               recording_new_entries, replace_run_dir)
 
 from forcespace.errors import ForcespaceError, InputError
 from forcespace.extend import BOTTOM, TOP
@@ -283,7 +283,7 @@ variable perr equal abs(c_ftop+{_fmt(T)})
 
     directory = check_output_dir(directory)
     directory.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", dir=directory.parent))
+    tmp = new_temp_dir(directory)
     try:
         with open(tmp / "data.lmp", "w") as f:
             f.write("LAMMPS data file written by forcespace_adapters.liggghts\n\n")
@@ -419,10 +419,7 @@ run 0
                 "top_plate": plate,
                 "packing": {"scene_name": p.scene_name, "seed": p.seed}}
         (tmp / "deck.json").write_text(json.dumps(meta, indent=1))
-        mark_run_dir(tmp)
-        if directory.exists():    # empty, or made by forcespace (check_output_dir)
-            shutil.rmtree(directory)
-        os.replace(tmp, directory)
+        replace_run_dir(tmp, directory)   # only if nothing in it is anyone else's
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
@@ -459,7 +456,8 @@ def run_deck(directory, binary: str | None = None, timeout: float | None = None,
     if shutil.which("stdbuf"):
         cmd = ["stdbuf", "-o0", "-e0"] + cmd
     t0 = time.perf_counter()
-    rc = _run_streaming(cmd, d, timeout, _deck_progress(d, show_progress))
+    with recording_new_entries(d):        # the run's files are forcespace's own
+        rc = _run_streaming(cmd, d, timeout, _deck_progress(d, show_progress))
     wall = time.perf_counter() - t0
     text = (d / "screen.txt").read_text(errors="replace")
     errors = [ln.strip() for ln in text.splitlines() if "ERROR" in ln]
@@ -474,6 +472,7 @@ def run_deck(directory, binary: str | None = None, timeout: float | None = None,
     tmp = d / ".status.json.tmp"
     tmp.write_text(json.dumps(status, indent=1))
     os.replace(tmp, d / "status.json")
+    mark_run_dir(d, ["status.json"])
     return status
 
 

@@ -18,7 +18,8 @@ import numpy as np
 
 from forcespace.errors import InputError
 from forcespace import Packing
-from forcespace.extend import check_output_dir, check_output_file, mark_run_dir
+from forcespace.extend import (check_output_dir, check_output_file, new_temp_dir,
+                               probe_writable, recording_new_entries, replace_run_dir)
 from forcespace import read_packing, write_packing
 
 from . import liggghts
@@ -94,21 +95,20 @@ def export(code: str, packing, directory, options=None, y_range=None,
                              "only (slice loads need per-atom torques); use pymunk")
         liggghts.write_deck(prob, d, opt, source=source)
     else:
-        if d.exists():           # empty, or made by forcespace (check_output_dir)
-            shutil.rmtree(d)
-        d.mkdir(parents=True)
-        mark_run_dir(d)
-    if isinstance(packing, Packing):
-        write_packing(rigid, d / "rigid.h5")
-    else:
-        shutil.copyfile(packing, d / ".rigid.h5.tmp")
-        os.replace(d / ".rigid.h5.tmp", d / "rigid.h5")
-    _write_json(d / "run.json", {"code": code, "options": asdict(opt), "top": top,
-                                 "units": "kn in <Fn>/R, tolerances in <Fn>, pymunk dt in "
-                                          "sqrt(m_min R/<Fn>)",
-                                 "y_range": list(y_range) if y_range is not None else None,
-                                 "packing": str(Path(packing).resolve())
-                                 if not isinstance(packing, Packing) else None})
+        replace_run_dir(new_temp_dir(d), d)      # empty, recorded as forcespace's
+    with recording_new_entries(d):
+        if isinstance(packing, Packing):
+            write_packing(rigid, d / "rigid.h5")
+        else:
+            shutil.copyfile(packing, d / ".rigid.h5.tmp")
+            os.replace(d / ".rigid.h5.tmp", d / "rigid.h5")
+        _write_json(d / "run.json", {"code": code, "options": asdict(opt), "top": top,
+                                     "units": "kn in <Fn>/R, tolerances in <Fn>, pymunk dt "
+                                              "in sqrt(m_min R/<Fn>)",
+                                     "y_range": list(y_range) if y_range is not None
+                                     else None,
+                                     "packing": str(Path(packing).resolve())
+                                     if not isinstance(packing, Packing) else None})
     return d
 
 
@@ -121,14 +121,16 @@ def run(code: str, directory, binary=None, timeout=None, progress=None,
     meta = _run_json(directory)
     if meta["code"] != code:
         raise InputError(directory, "run.json code", f"this directory is for {meta['code']}", got=code)
-    d = check_output_dir(directory)
+    d = Path(directory)
+    probe_writable(d, d, "DIRECTORY")          # written into, never replaced
     if code == "liggghts":
         return liggghts.run_deck(d, binary=binary, timeout=timeout, show_progress=show_progress)
     rigid = read_packing(d / "rigid.h5")
     prob = soft_problem(rigid, meta["y_range"], top=meta.get("top", "plate"), source=d / "rigid.h5")
     soft, info = simulate(prob, PymunkOptions(**meta["options"]), progress)
-    write_packing(soft, d / "result.h5", kind="soft_network", extra_attrs=_attrs(soft))
-    _write_json(d / "status.json", info)
+    with recording_new_entries(d):
+        write_packing(soft, d / "result.h5", kind="soft_network", extra_attrs=_attrs(soft))
+        _write_json(d / "status.json", info)
     return info
 
 

@@ -136,6 +136,50 @@ def test_export_never_deletes_a_directory_it_did_not_create(tmp_path, capsys):
     assert (own / ".forcespace-run").is_file()
 
 
+
+@pytest.mark.parametrize("command", [["view", str(PACK)], ["export", "liggghts", str(PACK)],
+                                     ["export", "pymunk", str(PACK)]])
+def test_a_users_file_in_a_directory_forcespace_made_survives(tmp_path, capsys, monkeypatch,
+                                                              command):
+    # view -o DIR and export ... -o DIR deleted files a user had put into a directory
+    # forcespace made (exit 0); view -o . inside it emptied it, view -o .. from a sub-
+    # directory deleted the whole tree (issue 48)
+    if command[0] == "export":
+        pytest.importorskip("forcespace_adapters")
+    d = tmp_path / "out"
+    assert main(command + ["-o", str(d)]) == 0
+    assert main(command + ["-o", str(d)]) == 0         # nothing but its own: replaced
+    capsys.readouterr()
+    (d / "sub").mkdir()
+    (d / "sub" / "notes.txt").write_text("my notes")
+    assert main(command + ["-o", str(d)]) == 2
+    err = one_line(capsys)
+    assert str(d) in err and "'sub'" in err and "not forcespace's" in err
+    assert (d / "sub" / "notes.txt").read_text() == "my notes"
+    shutil.rmtree(d / "sub")
+    monkeypatch.chdir(d)                              # the working directory ...
+    for here in (".", str(d), "sub/..", ".."):        # ... or one that holds it
+        assert main(command + ["-o", here]) == 2
+        assert "working directory" in one_line(capsys)
+    assert (d / ".forcespace-run").is_file() and tmp_path.is_dir()
+    monkeypatch.chdir(tmp_path)
+    assert main(command + ["-o", str(d)]) == 0
+
+
+def test_a_liggghts_runs_own_files_let_its_deck_be_replaced(tmp_path, capsys):
+    pytest.importorskip("forcespace_adapters")
+    from forcespace.io.outputs import foreign_entries, own_entries
+    d = tmp_path / "deck"
+    assert main(["export", "liggghts", str(PACK), "-o", str(d), "--ramp-steps", "500",
+                 "--max-steps", "1000"]) == 0
+    assert foreign_entries(d) == [] and "in.liggghts" in own_entries(d)
+    main(["run", "liggghts", str(d)])         # converged or not: its files are its own
+    assert {"screen.txt", "log.liggghts", "atoms.dump", "status.json"} <= own_entries(d)
+    assert foreign_entries(d) == []
+    assert main(["export", "liggghts", str(PACK), "-o", str(d)]) == 0
+    assert not (d / "screen.txt").exists()
+
+
 CORRUPTIONS = [
     ("disks", lambda f: f["disks"].__setitem__((0, 0), np.nan), "disks/x"),
     ("radius", lambda f: f["disks"].__setitem__((3, 2), -1.0), "disks/r"),

@@ -27,7 +27,8 @@ def register(sub) -> None:
                    help="optional ensemble of this packing (forcespace sample): adds the "
                         "per-contact mean and spread")
     p.add_argument("-o", "--output", required=True, metavar="DIR",
-                   help="directory to write (created; replaced only if forcespace made it)")
+                   help="directory to write (created; replaced only while everything in it "
+                        "is forcespace's own)")
     p.add_argument("--format", default="ovito,vtk", metavar="F[,F]",
                    help="ovito, vtk or both (default ovito,vtk)")
     p.add_argument("--json", action="store_true", help="print JSON")

@@ -6,9 +6,13 @@ of simulation. Writers hold :func:`output_lock` (a non-blocking lock, :func:`fil
 on a hidden ``.NAME.lock`` beside the target): a second process writing the same
 file is refused with a clear error instead of interleaving. Under the lock,
 temporary files of earlier runs that were killed (``.NAME.*.tmp``, the pattern
-of :func:`forcespace.io.h5.atomic_path`) are removed. Run directories that
-forcespace creates carry a marker file; a directory without it is never
-replaced or deleted.
+of :func:`forcespace.io.h5.atomic_path`) are removed.
+
+Output directories (viewer files, DEM run directories) follow one policy
+(:func:`check_output_dir`, :func:`replace_run_dir`): forcespace records in a
+marker file (``.forcespace-run``) every entry it wrote there; a directory is
+replaced only when everything in it is recorded (a file a user added keeps it, and
+names itself in the refusal), and never when it is the working directory or holds it.
 
 Locks are `filelock <https://py-filelock.readthedocs.io>`_ locks (``flock`` on POSIX,
 ``msvcrt`` on Windows); the lock file is removed when the lock is released, so a
@@ -19,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import os
 import secrets
+import shutil
 import stat
 from pathlib import Path
 
@@ -100,21 +105,110 @@ def check_figure_file(path, inputs=(), field: str = "-o/--output") -> list[Path]
 
 
 def check_output_dir(path, field: str = "-o/--output") -> Path:
-    """Refuse a run directory forcespace may not replace: an existing non-directory,
-    or a non-empty directory without forcespace's marker file. Returns the path."""
+    """Refuse a run directory forcespace may not replace, before any work: an existing
+    non-directory or symlink, the working directory or one that holds it, or a non-empty
+    directory with an entry forcespace did not write (see :func:`foreign_entries`).
+    Returns the path."""
     d = Path(path)
     if d.is_symlink() or (d.exists() and not d.is_dir()):
         raise InputError(d, field, "exists and is not a directory")
-    if d.is_dir() and any(d.iterdir()) and not (d / RUN_DIR_MARKER).is_file():
-        raise InputError(d, field, "is a non-empty directory that forcespace did not create; "
-                         "choose a new or empty directory (nothing was changed)")
+    here = Path.cwd().resolve()
+    if d.resolve() == here or d.resolve() in here.parents:
+        raise InputError(d, field, "is the working directory or holds it; forcespace never "
+                         "replaces that: choose a new directory (nothing was changed)")
+    if d.is_dir() and any(d.iterdir()):
+        foreign = foreign_entries(d)
+        if foreign:
+            what = ("a non-empty directory that forcespace did not create"
+                    if own_entries(d) is None else
+                    f"a directory forcespace made, but {foreign[0]!r}"
+                    + (f" and {len(foreign) - 1} other entr"
+                       f"{'y' if len(foreign) == 2 else 'ies'}" if len(foreign) > 1 else "")
+                    + " in it are not forcespace's")
+            raise InputError(d, field, f"is {what}; forcespace replaces only directories "
+                             "that hold nothing but its own files: choose a new or empty "
+                             "directory (nothing was changed)")
     _parent_writable(d, field)
     return d
 
 
-def mark_run_dir(path) -> None:
-    """Mark a directory as created by forcespace (so a later export may replace it)."""
-    (Path(path) / RUN_DIR_MARKER).write_text("created by forcespace; safe to replace\n")
+def _entries(d: Path) -> set[str]:
+    """Every file and folder under ``d``, as paths relative to it (POSIX form)."""
+    return {q.relative_to(d).as_posix() for q in d.rglob("*")}
+
+
+def own_entries(path) -> set[str] | None:
+    """The entries of the directory ``path`` forcespace recorded as written by it (None
+    without a marker file)."""
+    marker = Path(path) / RUN_DIR_MARKER
+    if not marker.is_file():
+        return None
+    lines = marker.read_text(errors="replace").splitlines()
+    return {ln for ln in lines[1:] if ln and not ln.startswith("#")}
+
+
+def foreign_entries(path) -> list[str]:
+    """Entries under the directory ``path`` that forcespace did not record as its own
+    (sorted; the marker itself excluded)."""
+    d = Path(path)
+    own = own_entries(d) or set()
+    return sorted(e for e in _entries(d) if e != RUN_DIR_MARKER and e not in own)
+
+
+def mark_run_dir(path, entries=None) -> None:
+    """Record ``entries`` (paths relative to the directory ``path``; default: everything
+    in it now) as written by forcespace, beside those recorded before."""
+    d = Path(path)
+    new = _entries(d) if entries is None else {Path(e).as_posix() for e in entries}
+    own = (own_entries(d) or set()) | new
+    own.discard(RUN_DIR_MARKER)
+    tmp = d / f".{RUN_DIR_MARKER}.{secrets.token_hex(4)}.tmp"
+    tmp.write_text("# written by forcespace: the directory is replaced only while it holds "
+                   "nothing but these entries\n" + "".join(f"{e}\n" for e in sorted(own)))
+    os.replace(tmp, d / RUN_DIR_MARKER)
+
+
+@contextlib.contextmanager
+def recording_new_entries(path):
+    """Record as forcespace's own what appears in the directory ``path`` during the
+    block (a run's output files), also when the block fails."""
+    d = Path(path)
+    before = _entries(d)
+    try:
+        yield d
+    finally:
+        new = _entries(d) - before
+        if new:
+            mark_run_dir(d, new)
+
+
+def new_temp_dir(d) -> Path:
+    """An empty folder ``.NAME.<random>.tmp`` beside the directory ``d`` (where a writer
+    fills what :func:`replace_run_dir` then puts in its place), with the permissions a
+    plain ``mkdir`` gives (0777 less the umask; ``tempfile.mkdtemp`` would make it 0700)."""
+    d = Path(d)
+    for _ in range(100):
+        tmp = d.parent / f".{d.name}.{secrets.token_hex(4)}.tmp"
+        try:
+            tmp.mkdir()
+            return tmp
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"no free temporary name beside {d}")
+
+
+def replace_run_dir(tmp, directory, field: str = "-o/--output") -> Path:
+    """Put the finished folder ``tmp`` (beside ``directory``, written by forcespace) in
+    place of ``directory``: everything in ``tmp`` is recorded as forcespace's, and an
+    existing ``directory`` is removed only if it still passes :func:`check_output_dir`
+    (a file added since the check keeps it: InputError, ``tmp`` left to the caller)."""
+    d, tmp = Path(directory), Path(tmp)
+    mark_run_dir(tmp)
+    if d.exists():
+        check_output_dir(d, field)
+        shutil.rmtree(d)
+    os.replace(tmp, d)
+    return d
 
 
 def clean_stale_temps(path) -> list[Path]:

@@ -31,16 +31,14 @@ is |ft| / (mu_k fn) with mu_k the contact's Coulomb coefficient (plate_mu on wal
 from __future__ import annotations
 
 import contextlib
-import os
 import shutil
-import secrets
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
 from ..model.walls import BOTTOM, LEFT, RIGHT, TOP
-from .outputs import check_output_dir, mark_run_dir
+from .outputs import check_output_dir, new_temp_dir, replace_run_dir
 
 FORMATS = ("ovito", "vtk")
 WALL_POINT_RADIUS = 0.05      # [R] radius of the wall-contact particles in OVITO
@@ -270,25 +268,13 @@ def write_vtk(packing, directory, ensemble=None) -> list[Path]:
     return [d / f"{n}.vtp" for n in ("disks", "contacts", "walls")] + [d / "packing.vtm"]
 
 
-def _new_temp_dir(d: Path) -> Path:
-    """An empty folder ``.NAME.<random>.tmp`` beside ``d`` with the permissions a plain
-    ``mkdir`` gives (0777 less the umask; ``tempfile.mkdtemp`` would make it 0700)."""
-    for _ in range(100):
-        tmp = d.parent / f".{d.name}.{secrets.token_hex(4)}.tmp"
-        try:
-            tmp.mkdir()
-            return tmp
-        except FileExistsError:
-            continue
-    raise FileExistsError(f"no free temporary name beside {d}")
-
-
 def write_viewer_files(packing, directory, formats=FORMATS, ensemble=None) -> list[Path]:
     """Write ``packing`` (and the per-contact statistics of ``ensemble``, if given) for
     OVITO and/or ParaView into ``directory`` (``formats``: "ovito", "vtk"); returns the
-    files written. The directory is created, or replaced if forcespace made it (a
-    non-empty directory of someone else's is refused before anything is written); files
-    appear all at once (written to a temporary folder, then renamed)."""
+    files written. The directory is created, or replaced while everything in it is
+    forcespace's own (:func:`forcespace.io.outputs.check_output_dir`: anything else is
+    refused before anything is written); files appear all at once (written to a
+    temporary folder, then renamed)."""
     formats = tuple(formats)
     bad = [f for f in formats if f not in FORMATS]
     if bad or not formats:
@@ -298,17 +284,14 @@ def write_viewer_files(packing, directory, formats=FORMATS, ensemble=None) -> li
         ensemble.contact_columns(packing)          # refuse a foreign ensemble first
     d = check_output_dir(directory)
     d.parent.mkdir(parents=True, exist_ok=True)
-    tmp = _new_temp_dir(d)
+    tmp = new_temp_dir(d)
     try:
         files = []
         if "ovito" in formats:
             files += write_ovito(packing, tmp, ensemble)
         if "vtk" in formats:
             files += write_vtk(packing, tmp, ensemble)
-        mark_run_dir(tmp)
-        if d.exists():
-            shutil.rmtree(d)
-        os.replace(tmp, d)
+        replace_run_dir(tmp, d)
     except BaseException:
         with contextlib.suppress(OSError):
             shutil.rmtree(tmp)
