@@ -242,3 +242,58 @@ def test_ctrl_c_while_the_relax_walk_draws_exits_130_and_resumes_bit_for_bit(tmp
         assert not list(tmp_path.glob("r.h5?*"))     # no lock or temporary file left
     assert main(args + ["-o", str(out), "--quiet"]) == 0
     assert np.array_equal(read_ensemble(out).samples, read_ensemble(full).samples)
+
+
+@pytest.mark.parametrize("cls, kw", [(HitAndRun, dict(thin=1, target_ess=400)),
+                                     (RelaxWalk, dict(target_ess=400))])
+def test_a_target_ess_run_rerun_killed_or_interrupted_resumes_to_the_straight_run(
+        tmp_path, monkeypatch, cls, kw):
+    # rerunning a finished --target-ess run added 4 samples each time (400 -> 404 ->
+    # 408); after kill -9, SIGTERM or a retry the resumed run stopped elsewhere than the
+    # straight run: the ESS checks started over at the resume instead of keeping the
+    # straight run's schedule (issue 48)
+    import shutil
+    from forcespace.engine.interrupts import Interrupted
+    from forcespace.sampling import driver
+    _, prob = grooves([0.3, 0.5], 0.2)
+    full = tmp_path / "full.h5"
+    snaps = []
+    real_append = driver.ef.append
+
+    def append_and_keep(path, *a, **k):      # the file as a kill -9 after this append
+        n = real_append(path, *a, **k)        # leaves it
+        snaps.append(tmp_path / f"snap{len(snaps)}.h5")
+        shutil.copyfile(path, snaps[-1])
+        return n
+
+    monkeypatch.setattr(driver.ef, "append", append_and_keep)
+    straight = cls(n=100_000, seed=1, checkpoint_every=4, **kw).compute(prob, output=full)
+    monkeypatch.setattr(driver.ef, "append", real_append)
+    X = read_ensemble(full).samples
+    n = len(X)
+    assert straight.success and f"after {n} samples" in straight.message and n > 500
+    for _ in range(2):                                         # rerun: nothing drawn
+        again = cls(n=100_000, seed=1, **kw).compute(prob, output=full)
+        assert (again.message, again.ensemble.n_samples) == (straight.message, n)
+    assert np.array_equal(read_ensemble(full).samples, X)
+    assert len(snaps) >= 6
+    for snap in snaps[1:-1:len(snaps) // 6]:                   # killed after an append
+        resumed = cls(n=100_000, seed=1, **kw).compute(prob, output=snap)
+        assert resumed.message == straight.message
+        assert np.array_equal(read_ensemble(snap).samples, X)
+    for k in (n - 8, n):        # Ctrl-C after sample k, before its ESS check
+        out = tmp_path / f"stop{k}.h5"
+        check = driver.Stop.__call__
+
+        def interrupted_at_k(stop, kk, samples, t0, k=k):
+            if kk == k:
+                raise Interrupted()
+            return check(stop, kk, samples, t0)
+
+        with monkeypatch.context() as m:
+            m.setattr(driver.Stop, "__call__", interrupted_at_k)
+            with pytest.raises(Interrupted, match=f"{k} samples in"):
+                cls(n=100_000, seed=1, **kw).compute(prob, output=out)
+        resumed = cls(n=100_000, seed=1, **kw).compute(prob, output=out)
+        assert resumed.message == straight.message
+        assert np.array_equal(read_ensemble(out).samples, X)

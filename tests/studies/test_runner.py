@@ -27,7 +27,8 @@ def tiny(monkeypatch):
     monkeypatch.syspath_prepend(str(HERE))
     monkeypatch.setitem(forcespace_studies.STUDIES, "tiny", "tiny_study")
     monkeypatch.delenv("TINY_STUDY_SLEEP", raising=False)
-    monkeypatch.delenv("TINY_STUDY_FAIL", raising=False)
+    for name in ("TINY_STUDY_FAIL", "TINY_STUDY_FAIL_AFTER", "TINY_STUDY_TARGET_ESS"):
+        monkeypatch.delenv(name, raising=False)
 
 
 def one_line(capsys):
@@ -276,6 +277,24 @@ def test_failed_tasks_are_retried_reported_per_task_and_no_retry_keeps_them(
     assert "failed" not in capsys.readouterr().err
     log = (out / "runs.log").read_text()
     assert log.count("t1 ") == 2 and log.count("t0 ") == 1
+
+
+def test_a_retried_target_ess_task_resumes_its_samples_to_the_straight_table(
+        tmp_path, capsys, monkeypatch):
+    # a task retried after its sampler had converged resumed the ensemble file and drew
+    # 4 samples more (fig3.csv: 404 hit-and-run samples, not 400; issue 48)
+    monkeypatch.setenv("TINY_STUDY_TARGET_ESS", "400")
+    ref, out = tmp_path / "ref", tmp_path / "retried"
+    assert study("--quick", "-o", ref, "--workers", 1) == 0
+    monkeypatch.setenv("TINY_STUDY_FAIL_AFTER", "t1")
+    assert study("--quick", "-o", out, "--workers", 1) == 0
+    assert "t1 failed on purpose after its sampling" in capsys.readouterr().err
+    (out / "heal").write_text("")
+    for _ in range(2):         # the retry, then a rerun of a finished study
+        assert study("--quick", "-o", out, "--workers", 1) == 0
+        assert _table(out) == _table(ref)
+    ns = [int(line.split(",")[4]) for line in _table(ref).decode().splitlines()[1:]]
+    assert min(ns) > 400                         # stopped at a later ESS check
 
 
 def test_a_study_where_every_task_failed_says_so(tmp_path, capsys, monkeypatch):

@@ -3,7 +3,10 @@
 Each task logs that it ran (one line appended to ``OUT/runs.log``), records the BLAS
 threads it saw, sleeps ``TINY_STUDY_SLEEP`` seconds (so a test can interrupt a run),
 fails on purpose if it is ``TINY_STUDY_FAIL`` (until ``OUT/heal`` exists), and samples S into
-``workdir/har.h5``. Registered by the tests as study ``tiny`` (``STUDIES["tiny"]``).
+``workdir/har.h5`` (``TINY_STUDY_TARGET_ESS``: until that ESS, thin 1); a task named by
+``TINY_STUDY_FAIL_AFTER`` fails after its sampling (until ``OUT/heal`` exists; not a
+parameter, as it changes no result). Registered by the tests as study ``tiny``
+(``STUDIES["tiny"]``).
 """
 import json
 import os
@@ -19,6 +22,7 @@ QUICK = dict(thetas=(0.3, 0.5), samples=6)
 def config(quick: bool) -> dict:
     cfg = dict(QUICK if quick else FULL)
     cfg["fail"] = os.environ.get("TINY_STUDY_FAIL", "")
+    cfg["target_ess"] = float(os.environ.get("TINY_STUDY_TARGET_ESS", 0)) or None
     return cfg
 
 
@@ -26,11 +30,12 @@ def tasks(quick: bool = False) -> list:
     cfg = config(quick)
     return [Task(f"t{i}", "tiny_study:task",
                  dict(theta=th, mu=0.2, samples=cfg["samples"], seed=i,
-                      fail=cfg["fail"] == f"t{i}"))
+                      fail=cfg["fail"] == f"t{i}",
+                      **({"target_ess": cfg["target_ess"]} if cfg["target_ess"] else {})))
             for i, th in enumerate(cfg["thetas"])]
 
 
-def task(theta, mu, samples, seed, fail, workdir) -> dict:
+def task(theta, mu, samples, seed, fail, workdir, target_ess=None) -> dict:
     import forcespace as fs
     from ensemble_cases import grooves
     from forcespace.errors import NumericalError
@@ -43,7 +48,12 @@ def task(theta, mu, samples, seed, fail, workdir) -> dict:
         raise NumericalError(f"task {wd.name} failed on purpose")
     time.sleep(float(os.environ.get("TINY_STUDY_SLEEP", 0)))   # not a parameter: no result
     _, prob = grooves([theta, theta + 0.1], mu=mu)
-    har = fs.HitAndRun(n=samples, seed=seed).compute(prob, output=wd / "har.h5")
+    har = (fs.HitAndRun(n=samples, seed=seed) if target_ess is None else
+           fs.HitAndRun(n=100_000, seed=seed, thin=1, target_ess=target_ess)
+           ).compute(prob, output=wd / "har.h5")
+    if os.environ.get("TINY_STUDY_FAIL_AFTER") == wd.name and \
+            not (wd.parents[1] / "heal").exists():
+        raise NumericalError(f"task {wd.name} failed on purpose after its sampling")
     threads = max((i["num_threads"] for i in threadpool_info()
                    if i["user_api"] == "blas"), default=1)
     return {"rows": [{"theta": theta, "seed": seed, "eta": har.ensemble.eta,

@@ -127,11 +127,16 @@ class Stop:
         self.next_check = config.MIN_DRAWS_PER_CHAIN * self.chains
         self.last = {}
 
+    def _after(self, k: int) -> int:
+        """The check after the one at k samples: k grown by a quarter, in whole rounds
+        of the chains."""
+        return self.chains * -(-int(1.25 * k) // self.chains)
+
     def __call__(self, k: int, samples, t0: float):
         """(status, message) when the run should stop after k samples, else None;
         ``samples()`` returns (X (k, 2m), chains (k,))."""
         if self.target_ess is not None and k % self.chains == 0 and k >= self.next_check:
-            self.next_check = self.chains * -(-int(1.25 * k) // self.chains)
+            self.next_check = self._after(k)
             X, chains = samples()
             s = summarize(tracked_statistics(by_chain(X, chains), seed=self.seed))
             self.last = {"min_ess": s["min_ess"], "max_rhat": s["max_rhat"], "k": k}
@@ -144,6 +149,17 @@ class Stop:
                 return 1, f"stopped after max_seconds = {self.max_seconds:g} s with {k} " \
                           f"samples{self._short()}"
         return None
+
+    def resumed(self, k: int, samples, t0: float):
+        """A run resumed with k stored samples (k < n) takes up the checks of a run
+        straight through: none before k (the run went on past them), the one at k if
+        k is due one (a run stopped there, by convergence or by a kill before it
+        checked). (status, message) if the run stops at k, else None."""
+        if self.target_ess is None:
+            return None
+        while self.next_check < k:
+            self.next_check = self._after(self.next_check)
+        return self(k, samples, t0) if k == self.next_check else None
 
     def expected_total(self) -> int:
         """Samples the run is expected to draw: with a target ESS and an ESS measured after
@@ -203,21 +219,23 @@ def _draw(walk, problem, stop, output, old, every, progress, t0) -> Ensemble:
     sink = _Sink(output, have, every, walk)
 
     def samples():
-        X = np.array([d[0] for d in sink.drawn], float).reshape(len(sink.drawn), -1)
+        X = np.array([d[0] for d in sink.drawn], float).reshape(len(sink.drawn),
+                                                                problem.n_columns)
         c = np.array([d[1] for d in sink.drawn], np.int64)
         if old is not None:
             X = np.vstack([old.ensemble.samples, X]) if len(X) else old.ensemble.samples
             c = np.concatenate([old.ensemble.chains, c])
         return X, c
 
-    outcome = None if have < stop.n else stop.at_cap(have, samples)
+    outcome = stop.at_cap(have, samples) if have >= stop.n else \
+        stop.resumed(have, samples, t0) if have else None
     with deferred_sigint() as interrupt, \
             progress_bar(total=stop.n, desc=walk.sampler, unit="sample",
                          disable=not progress) as bar:
         walk.interrupt = interrupt
         bar.update(min(have, stop.n))
         try:
-            for i in range(have, stop.n):
+            for i in range(have, stop.n if outcome is None else have):
                 sink.add(*walk.draw(i))
                 interrupt.check()
                 bar.update(1)
@@ -237,8 +255,10 @@ def _draw(walk, problem, stop, output, old, every, progress, t0) -> Ensemble:
             raise
     status, message = outcome if outcome is not None else stop.at_cap(stop.n, samples)
     ens = _ensemble(walk, problem, old, sink, status, message, output)
-    if sink.buffer or sink.drawn:
-        sink.flush(dumps(ens.diagnostics))
+    diag = dumps(ens.diagnostics)
+    if sink.buffer or sink.drawn or (old is not None
+                                     and old.ensemble.attrs.get("diagnostics") != diag):
+        sink.flush(diag)
     return ens
 
 
