@@ -78,9 +78,10 @@ def _cmd_import(args):
 def _cmd_distance(args):
     from forcespace import read_packing
 
-    from .distance import compare, make_problem
+    from .distance import check_made_from, compare, make_problem
     soft = read_packing(args.soft, kind="soft_network")
     rigid = read_packing(args.packing)
+    check_made_from(rigid, soft)               # before any work
     out = compare(rigid, soft, make_problem(rigid, args.top))
     if not args.list:
         out.pop("unmatched")

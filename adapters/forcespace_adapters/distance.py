@@ -48,8 +48,38 @@ def make_problem(rigid: Packing, top: str = "plate"):
     return fs.plate_problem(rigid) if top == "plate" else fs.full_problem(rigid)
 
 
+def check_made_from(rigid: Packing, soft: Packing) -> None:
+    """InputError (naming the soft network's file) unless ``soft`` was made from ``rigid``:
+    the packing fingerprint it records (``meta["packing_fingerprint"]``) must be the rigid
+    packing's; a network without one (written before it was recorded) must have the
+    rigid disks (same number and radii) within half the smallest radius of their places."""
+    src = soft.source or "soft network"
+    made_from = soft.meta.get("packing_fingerprint")
+    whose = f"the packing {rigid.source}" if rigid.source else "the rigid packing"
+    if made_from:
+        if made_from != rigid.fingerprint:
+            raise InputError(src, "meta/packing_fingerprint", f"names another packing "
+                             f"({made_from}, not {rigid.fingerprint} of {whose}): a soft "
+                             "network is measured in S of the packing it was made from")
+        return
+    n = rigid.n_disks
+    if soft.n_disks != n or not np.allclose(soft.r, rigid.r, rtol=1e-9, atol=0.0):
+        raise InputError(src, "disks", f"are not those of {whose} ({soft.n_disks} disks, "
+                         f"it has {n}, or other radii): a soft network is measured in S of "
+                         "the packing it was made from")
+    dx = soft.x - rigid.x
+    if rigid.periodic_x:
+        dx -= rigid.width * np.round(dx / rigid.width)
+    moved = float(np.hypot(dx, soft.y - rigid.y).max(initial=0.0))
+    if not moved <= 0.5 * float(rigid.r.min(initial=1.0)):
+        raise InputError(src, "disks", f"lie up to {moved:.3g} R from those of {whose} "
+                         "(more than half a radius): not a soft network of that packing")
+
+
 def soft_vector(rigid: Packing, soft: Packing, problem=None):
-    """(problem, x, match): the soft forces as a vector of the rigid statics problem."""
+    """(problem, x, match): the soft forces as a vector of the rigid statics problem
+    (InputError if ``soft`` was not made from ``rigid``, :func:`check_made_from`)."""
+    check_made_from(rigid, soft)
     prob = problem if problem is not None else make_problem(rigid)
     m = match_contacts(rigid, soft)
     return prob, prob.forces_from_packing(m.fn, m.ft), m

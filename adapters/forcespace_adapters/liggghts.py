@@ -417,7 +417,8 @@ run 0
                 "load": problem.load.tolist(),
                 "top_load": None if problem.top_load is None else problem.top_load.tolist(),
                 "top_plate": plate,
-                "packing": {"scene_name": p.scene_name, "seed": p.seed}}
+                "packing": {"scene_name": p.scene_name, "seed": p.seed,
+                            "fingerprint": p.fingerprint}}
         (tmp / "deck.json").write_text(json.dumps(meta, indent=1))
         replace_run_dir(tmp, directory)   # only if nothing in it is anyone else's
     except BaseException:
@@ -730,6 +731,10 @@ def _soft_network(d: Path, meta, status, atoms, cont, y_plate, rigid):
             "wall_time_s": status["wall_time_s"],
             "max_residual_force": float(np.linalg.norm(resid, axis=1).max(initial=0.0)),
             "deck": d.name}
+    made_from = meta["packing"].get("fingerprint") or (rigid.fingerprint if rigid is not None
+                                                       else None)
+    if made_from:
+        info["packing_fingerprint"] = made_from
     kw = dict(width=W, periodic_x=True, y_bottom=ybot, y_top=float("nan"),
               top_force=top_force, gravity=0.0, density=1.0, mu=meta["mu"],
               plate_mu=meta["wall_mu"], scene_name=meta["packing"]["scene_name"])

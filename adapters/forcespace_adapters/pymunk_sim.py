@@ -328,7 +328,8 @@ class PymunkScene:
                 FN.append(prob.top_load[i]); FT.append(0.0)
         meta = {"code": "pymunk", **{k: v for k, v in asdict(self.opt).items()},
                 "dt_abs": self.dt, "t0": self.t0, "problem": prob.description,
-                "force_scale": prob.force_scale, **(info or {})}
+                "force_scale": prob.force_scale,
+                "packing_fingerprint": prob.packing.fingerprint, **(info or {})}
         if self.plate is not None:
             y_top = self.plate.position.y
         else:

@@ -23,6 +23,9 @@ def test_a_liggghts_run_stopped_at_max_steps_is_flagged_by_run_and_distance(tmp_
     assert "not converged" in capsys.readouterr().err
     soft = tmp_path / "soft.h5"
     assert main(["import", "liggghts", str(deck), "-o", str(soft)]) == 0
+    from forcespace.io.packing_file import read_packing
+    assert read_packing(soft, kind="soft_network").meta["packing_fingerprint"] == \
+        read_packing(PACK).fingerprint                 # the deck names its packing
     capsys.readouterr()
     assert main(["distance", str(soft), str(PACK), "--json"]) == EXIT_NOT_CONVERGED
     captured = capsys.readouterr()
@@ -41,3 +44,38 @@ def test_output_into_a_closed_pipe_ends_quietly():
     err = p.stderr.read().decode()
     assert p.wait(timeout=120) == 0
     assert "Traceback" not in err and "BrokenPipe" not in err
+
+
+def test_distance_refuses_a_soft_network_of_another_packing_in_one_line(tmp_path, capsys):
+    # distance took a soft network of another packing: with the same number of disks it
+    # exited 0 with a distance (1.36, "not inside S"), with another a traceback (issue 48)
+    import dataclasses
+
+    import h5py
+    from forcespace.io.packing_file import read_packing, write_packing
+    from forcespace_adapters.distance import check_made_from
+    pack = ROOT / "tests" / "data" / "paper_fast_n100_mu1_seed2.h5"
+    rigid = read_packing(pack)
+    other_same_n = tmp_path / "mirrored.h5"          # the same disks, mirrored in x
+    write_packing(dataclasses.replace(rigid, x=rigid.width - rigid.x), other_same_n)
+    other_n = ROOT / "tests" / "data" / "paper_mu1_seed2.h5"
+    soft = tmp_path / "sel.h5"
+    assert main(["select", str(pack), "--plate", "-o", str(soft)]) == 0
+    assert read_packing(soft, kind="soft_network").meta["packing_fingerprint"] == \
+        rigid.fingerprint != read_packing(other_same_n).fingerprint
+    capsys.readouterr()
+
+    def refused(field):
+        for other in (other_same_n, other_n):
+            assert main(["distance", str(soft), str(other)]) == 2
+            err = capsys.readouterr().err.strip().splitlines()
+            assert len(err) == 1 and str(soft) in err[0] and field in err[0], err
+            assert "Traceback" not in err[0]
+        check_made_from(rigid, read_packing(soft, kind="soft_network"))   # its own passes
+
+    assert main(["distance", str(soft), str(pack), "--json"]) == 0
+    capsys.readouterr()
+    refused("meta/packing_fingerprint")
+    with h5py.File(soft, "r+") as f:     # a file written before the fingerprint was kept:
+        del f["meta"].attrs["packing_fingerprint"]     # its disks must be the packing's
+    refused(": disks")

@@ -355,6 +355,19 @@ class Packing:
             return None
         return float(np.pi * (self.r**2).sum() / (self.width * (self.y_top - self.y_bottom)))
 
+    @property
+    def fingerprint(self) -> str:
+        """Hash (32 hex digits) of the geometry: disks (x, y, r) and box (width, periodic
+        x, plates), to 1e-9 R (blind to round-off). A soft network records the fingerprint
+        of the packing it was made from (``meta["packing_fingerprint"]``)."""
+        import hashlib
+
+        h = hashlib.sha256()
+        for v in (self.x, self.y, self.r, [self.width, float(self.periodic_x),
+                                           self.y_bottom, self.y_top]):
+            h.update((np.round(np.asarray(v, float), 9) + 0.0).tobytes())
+        return h.hexdigest()[:32]
+
 
 def contact_sums(p: Packing, fn, ft, contacts=None, external: bool = False):
     """The force (n, 2) [F0] and torque (n,) [F0 R] that contacts exert on the disks:

@@ -218,6 +218,7 @@ class Selection(Computed):
         out = packing.with_forces(fn, ft)
         sm = self.summary()
         out.meta = {"code": "forcespace select", "converged": True,
+                    "packing_fingerprint": packing.fingerprint,
                     "problem_kind": sm["kind"],
                     "slice_height": float("nan") if sm["slice_height"] is None
                     else float(sm["slice_height"]),
