@@ -100,10 +100,12 @@ def run_samplers(row: dict, runs, prob, wd, tag: str = "", analysis=None) -> dic
     tail ESS >= 100 and R-hat <= 1.05 on every tracked statistic), n_NAME, ess_NAME,
     rhat_NAME, t_NAME_s, relax_projected (stalls finished by projection) and widening_NAME
     (a uniform sampler's frame widening, <Fn>, where S had no point strictly inside in its
-    affine hull: samples within it of S; absent when 0). A run that
-    fails keeps the row: error_NAME says why. Returns {name: Ensemble, or None if the
-    run failed}."""
-    from forcespace.errors import ForcespaceError
+    affine hull: samples within it of S; absent when 0). A run whose method fails
+    (NumericalError) keeps the row: error_NAME says why (rule 5: a failed sampling).
+    Anything else -- a corrupt or foreign work file, a lock held elsewhere -- is no
+    result: it propagates, the task fails and the next run retries it. Returns
+    {name: Ensemble, or None if the run failed}."""
+    from forcespace.errors import NumericalError
 
     out = {}
     for name, smp in runs:
@@ -113,7 +115,7 @@ def run_samplers(row: dict, runs, prob, wd, tag: str = "", analysis=None) -> dic
             given = ({"analysis": analysis} if analysis is not None and "analysis"
                      in inspect.signature(smp.compute).parameters else {})
             ens = smp.compute(prob, output=Path(wd) / f"{name}{tag}.h5", **given).ensemble
-        except ForcespaceError as exc:
+        except NumericalError as exc:
             row.update({f"eta_{name}": None, f"converged_{name}": False,
                         f"error_{name}": f"{type(exc).__name__}: {exc}",
                         f"t_{name}_s": time.perf_counter() - t0})

@@ -74,6 +74,25 @@ def test_sample_refuses_to_resume_onto_a_hand_edited_file(ensemble_file, tmp_pat
     assert bad.read_bytes() == before
 
 
+def test_an_ensemble_file_without_its_checksums_is_refused(ensemble_file, tmp_path, capsys):
+    # an edited file whose sample_checksum dataset was deleted passed: eta 0.56, true 0.06
+    # (issue 48)
+    bad = edit(ensemble_file, tmp_path / "bad.h5", "every ft*10")
+    with h5py.File(bad, "r+") as f:
+        del f["sample_checksum"]
+    before = bad.read_bytes()
+    for args in (["ensemble", str(bad), "--json"],
+                 ["sample", str(PACK), "--sampler", "hit-and-run", "-n", "8", "-o", str(bad),
+                  "--quiet"]):
+        assert main(args) == 2
+        assert f"{bad}: sample_checksum: missing" in one_line(capsys)
+    assert bad.read_bytes() == before
+    with h5py.File(bad, "r+") as f:      # any other missing part is named by its name
+        del f["sample_chain"]
+    assert main(["ensemble", str(bad)]) == 2
+    assert f"{bad}: sample_chain: missing" in one_line(capsys)
+
+
 def test_a_nan_in_the_stored_chain_state_is_the_files_fault(ensemble_file, tmp_path, capsys):
     bad = tmp_path / "nan.h5"
     shutil.copy(ensemble_file, bad)

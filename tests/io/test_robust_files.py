@@ -189,7 +189,27 @@ CORRUPTIONS = [
     ("normal", lambda f: f["contacts/normal"].__setitem__((0, 0), 3.0), "contacts/normal"),
     ("forces", lambda f: f["forces"].__setitem__((0, 0), np.inf), "forces"),
     ("missing", lambda f: f.__delitem__("forces"), "forces"),
+    # issue 48: a contact listed twice made dim S 8 instead of 6; body indices stored as
+    # floats (2.7 read as body 2) gave dim S 0
+    ("duplicate", lambda f: _append_first_contact(f), "contacts/bodies"),
+    ("float index", lambda f: _replace(f, "contacts/bodies", f["contacts/bodies"][()] + 0.7),
+     "contacts/bodies"),
+    ("float image", lambda f: _replace(f, "contacts/image", f["contacts/image"][()] * 1.0),
+     "contacts/image"),
 ]
+
+
+def _replace(f, name, data):
+    del f[name]
+    f[name] = data
+
+
+def _append_first_contact(f):
+    """Contact 0 listed twice (every contact dataset grows by its first row)."""
+    for name in ("contacts/bodies", "contacts/normal", "contacts/point", "contacts/image",
+                 "contacts/gap", "forces"):
+        v = f[name][()]
+        _replace(f, name, np.concatenate([v, v[:1]]))
 
 
 @pytest.mark.parametrize("name, corrupt, field", CORRUPTIONS, ids=[c[0] for c in CORRUPTIONS])

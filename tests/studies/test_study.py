@@ -750,3 +750,33 @@ def test_samplers_given_the_tasks_analysis_sample_the_same_chain_without_a_secon
         assert ens_own[k].n_samples == ens_given[k].n_samples > 0
         np.testing.assert_array_equal(ens_own[k].samples, ens_given[k].samples)
         assert own[f"eta_{k}"] == given[f"eta_{k}"]
+
+
+def test_a_sampler_failing_on_a_corrupt_work_file_fails_its_task(tmp_path, monkeypatch):
+    # run_samplers recorded any ForcespaceError as the sampler's result: a task whose
+    # work files were corrupt was marked "ok" with error_NAME rows and never retried
+    # (issue 48). A method that fails (NumericalError) stays a result (rule 5).
+    import h5py
+    import forcespace as fs
+    from ensemble_cases import lattice_rows
+    from forcespace.errors import InputError, NumericalError
+    from forcespace_studies.common import run_samplers, sampler
+
+    _, prob = lattice_rows(3, 2, 0.5)
+    runs = [("hit_and_run", sampler("hit_and_run", 4, 20, None))]
+    row = {}
+    run_samplers(row, runs, prob, tmp_path)
+    work = tmp_path / "hit_and_run.h5"
+    with h5py.File(work, "r+") as f:
+        f["samples"][0, 0, 0] += 1.0
+    with pytest.raises(InputError, match=f"{work}: samples\\[0\\]"):
+        run_samplers({}, runs, prob, tmp_path)
+    work.unlink()
+
+    def fails(self, *a, **k):
+        raise NumericalError("the walk failed")
+
+    monkeypatch.setattr(fs.HitAndRun, "compute", fails)
+    row = {}
+    assert run_samplers(row, runs, prob, tmp_path) == {"hit_and_run": None}
+    assert row["error_hit_and_run"] == "NumericalError: the walk failed"

@@ -39,7 +39,8 @@ import numpy as np
 from ..errors import InputError
 from ..model.problem import StaticsProblem
 from ..model.ensemble import Ensemble
-from .h5 import atomic_h5, atomic_replace_copy, code_version, open_h5, write_dataset
+from .h5 import (atomic_h5, atomic_replace_copy, code_version, missing_name, open_h5,
+                 write_dataset)
 
 KIND = "ensemble"
 
@@ -156,10 +157,8 @@ def append(path, X, chains, violations, checkpoint: dict, checkpoint_attrs: dict
         if k:
             ds.resize(k0 + k, axis=0)
             ds[k0:] = X.reshape(k, -1, 2)
-            columns = [("sample_chain", chains), ("sample_violation", violations)]
-            if "sample_checksum" in f:
-                columns.append(("sample_checksum", sample_checksums(X)))
-            for name, vals in columns:
+            for name, vals in (("sample_chain", chains), ("sample_violation", violations),
+                               ("sample_checksum", sample_checksums(X))):
                 d = f[name]
                 d.resize(k0 + k, axis=0)
                 d[k0:] = np.asarray(vals)
@@ -192,12 +191,16 @@ def read_file(path, samples: bool = True) -> EnsembleFile:
                 contacts=g["contacts"][()], disks=g["disks"][()], mu=g["mu"][()],
                 x_jammed=g["x_jammed"][()].reshape(-1), force_scale=float(attrs["force_scale"]),
                 params=json.loads(attrs.get("params", "{}")), attrs=attrs, path=str(path))
-            checks = f["sample_checksum"][()] if samples and "sample_checksum" in f else None
+            if "sample_checksum" not in f:     # without it an edited sample would pass
+                raise InputError(path, "sample_checksum", "missing: every ensemble file "
+                                 "keeps one checksum per sample, so an edited sample is "
+                                 "named; this one cannot be trusted: sample again")
+            checks = f["sample_checksum"][()] if samples else None
             out = EnsembleFile(ens, setup={k: v[()] for k, v in f["setup"].items()},
                                checkpoint={k: v[()] for k, v in f["checkpoint"].items()},
                                checkpoint_attrs=_attrs(f["checkpoint"]))
         except KeyError as exc:
-            raise InputError(path, str(exc.args[0]) if exc.args else "?",
+            raise InputError(path, missing_name(exc),
                              "missing; not a complete forcespace ensemble file") from None
         except (ValueError, TypeError, OSError) as exc:
             raise InputError(path, "(layout)", f"unreadable as a forcespace ensemble file "

@@ -11,6 +11,7 @@ import errno
 import functools
 import io
 import os
+import re
 import secrets
 from pathlib import Path
 
@@ -153,6 +154,14 @@ def write_dataset(group, name, data, units: str, description: str, columns=None)
     return ds
 
 
+def missing_name(exc: KeyError) -> str:
+    """The dataset, group or attribute name of h5py's KeyError ("Unable to open object
+    (object 'x' doesn't exist)" -> "x"), or the plain key of a dict's."""
+    text = str(exc.args[0]) if exc.args else "?"
+    found = re.search(r"(?:object|attribute:) '([^']*)'", text)
+    return found.group(1) if found else text
+
+
 def open_h5(path, kind: str | None = None):
     """Open an existing forcespace HDF5 file read-only, with a clear error.
 
@@ -164,7 +173,11 @@ def open_h5(path, kind: str | None = None):
         p, source = path, io.BytesIO(path.data)
     else:
         p = source = Path(path)
-        if not p.exists():
+        try:
+            found = p.exists()
+        except OSError as exc:            # e.g. a name longer than the filesystem takes
+            raise InputError(p, "(file)", f"cannot be looked up ({exc.strerror})") from None
+        if not found:
             raise InputError(p, "(file)", "does not exist")
     try:
         f = h5py.File(source, "r")

@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import InputError
 from ..model.scene import SCHEMA_VERSION
 from ..model.setup import Setup
-from .h5 import atomic_h5, open_h5, write_dataset
+from .h5 import atomic_h5, missing_name, open_h5, write_dataset
 from ..model.walls import WALL_CODES, WALL_NAMES
 from ..model.measurement import Measurement
 from ..model.packing import Packing, check_force_signs, check_packing
@@ -156,6 +156,10 @@ def read_packing(path, kind: str = "packing") -> Packing:
             if ab.ndim != 2 or ab.shape[1] != 2:
                 raise InputError(path, "contacts/bodies", "must be an (Nc, 2) table a, b",
                                  got=ab.shape)
+            for name, v in (("contacts/bodies", ab), ("contacts/image", c["image"])):
+                if not np.issubdtype(v.dtype, np.integer):    # 2.7 would be body 2
+                    raise InputError(path, name, "must be stored as integers",
+                                     got=v.dtype.name)
             p = Packing(
                 x=d[:, 0].copy(), y=d[:, 1].copy(), r=d[:, 2].copy(),
                 width=float(box["width"]), periodic_x=bool(box["periodic_x"]),
@@ -176,7 +180,7 @@ def read_packing(path, kind: str = "packing") -> Packing:
                 external=f["external"][()] if "external" in f else None,
                 measurement=_read_measurement(f))
         except KeyError as exc:
-            raise InputError(path, str(exc.args[0]) if exc.args else "?",
+            raise InputError(path, missing_name(exc),
                              "missing from the file; not a complete forcespace packing") from None
         except (ValueError, TypeError, IndexError) as exc:
             raise InputError(path, "(layout)", f"unreadable as a forcespace packing ({exc})") \

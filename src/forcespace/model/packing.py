@@ -475,6 +475,10 @@ def check_packing(p: Packing, source="packing") -> Packing:
                         ("ft", (nc,)), ("normal", (nc, 2)), ("point", (nc, 2))):
         if np.shape(getattr(p, name)) != shape:
             bad(f"contacts/{name}", f"must have shape {shape}", got=np.shape(getattr(p, name)))
+    for name, field in (("a", "contacts/bodies"), ("b", "contacts/bodies"),
+                        ("image", "contacts/image")):
+        if not np.issubdtype(np.asarray(getattr(p, name)).dtype, np.integer):
+            bad(field, "must be integers", got=np.asarray(getattr(p, name)).dtype.name)
     for name in ("a", "b"):
         idx = np.asarray(getattr(p, name))
         if idx.size and (idx.min() < WALL or idx.max() >= n):
@@ -482,6 +486,7 @@ def check_packing(p: Packing, source="packing") -> Packing:
                 got=(int(idx.min()), int(idx.max())))
     if np.any(p.a == p.b):
         bad("contacts/bodies", "a contact must join two different bodies")
+    _check_unique_contacts(p, bad)
     for name in ("normal", "point", "gap", "fn", "ft"):
         if not np.all(np.isfinite(getattr(p, name))):
             bad(f"contacts/{name}" if name not in ("fn", "ft") else "forces",
@@ -498,6 +503,20 @@ def check_packing(p: Packing, source="packing") -> Packing:
                 got=ext.shape)
     check_measurement(p.measurement, n, nc, source)
     return p
+
+
+def _check_unique_contacts(p: Packing, bad) -> None:
+    """Each contact once: the same two bodies (in either order) through the same periodic
+    image twice would count one contact's forces twice (dim S grew from 6 to 8)."""
+    a, b, img = (np.asarray(v, np.int64) for v in (p.a, p.b, p.image))
+    swap = a > b
+    key = np.stack([np.where(swap, b, a), np.where(swap, a, b), np.where(swap, -img, img)], 1)
+    _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
+    if np.any(counts > 1):
+        k = int(first[np.argmax(counts > 1)])
+        twin = int(np.flatnonzero((key == key[k]).all(1))[1])
+        bad("contacts/bodies", f"contact {twin} repeats contact {k} (bodies {a[k]} and "
+            f"{b[k]}, image {img[k]}): each contact must be listed once")
 
 
 def tile(p: Packing, k: int) -> Packing:
