@@ -67,7 +67,7 @@ import numpy as np
 from forcespace.extend import (check_output_dir, mark_run_dir, new_temp_dir,
                                recording_new_entries, replace_run_dir)
 
-from forcespace.errors import ForcespaceError, InputError
+from forcespace.errors import ForcespaceError, InputError, NumericalError
 from forcespace.extend import BOTTOM, TOP
 from forcespace import Packing
 
@@ -99,6 +99,9 @@ def precision_floor(K: float, extent: float) -> float:
 
 class LiggghtsError(ForcespaceError):
     """LIGGGHTS is missing, failed, or its output cannot be read."""
+
+
+MAX_STEPS = 2 ** 31 - 1     # LIGGGHTS' run N and loop counts are 32-bit integers
 
 
 @dataclass
@@ -139,21 +142,35 @@ class LiggghtsOptions:
     snapshot_every: int = 0
 
     def validate(self, source="options"):
-        checks = [("kn", self.kn > 0, "> 0"), ("kt_ratio", self.kt_ratio >= 0, ">= 0"),
-                  ("damping_ratio", self.damping_ratio >= 0, ">= 0"),
+        steps = f"<= {MAX_STEPS} (LIGGGHTS counts a run's steps and loops in 32 bits)"
+        checks = [("kn", 1 <= self.kn <= 1e12, "in [1, 1e12] <Fn>/R (a mean contact "
+                   "overlaps by R/K: below 1 by more than a radius; above 1e12 the run's "
+                   "precision floor 200 K ulp(L) reaches <Fn> in a box of tens of R)"),
+                  ("kt_ratio", 0 <= self.kt_ratio <= 1e6, "in [0, 1e6] (kt/kn)"),
+                  ("damping_ratio", 0 <= self.damping_ratio <= 1e3, "in [0, 1e3]"),
                   ("dt_fraction", 0 < self.dt_fraction <= 0.1, "in (0, 0.1] (t_c/10 fails)"),
-                  ("tolerance", self.tolerance > 0, "> 0"),
-                  ("plate_time", self.plate_time > 0, "> 0"),
-                  ("plate_integral_time", self.plate_integral_time > 0, "> 0"),
-                  ("ramp_steps", self.ramp_steps >= 1, ">= 1"),
-                  ("check_every", self.check_every >= 1, ">= 1"),
-                  ("max_steps", self.max_steps >= self.ramp_steps, ">= ramp_steps"),
-                  ("snapshot_every", self.snapshot_every >= 0, ">= 0")]
+                  ("tolerance", 0 < self.tolerance < 1, "in (0, 1) <Fn> (a residual of "
+                   "<Fn> or more is no static state)"),
+                  ("plate_time", 0 < self.plate_time <= 1e6, "in (0, 1e6] t_c"),
+                  ("plate_integral_time", 0 < self.plate_integral_time <= 1e9,
+                   "in (0, 1e9] t_c"),
+                  ("ramp_steps", 1 <= self.ramp_steps <= MAX_STEPS, f">= 1 and {steps}"),
+                  ("check_every", 1 <= self.check_every <= MAX_STEPS, f">= 1 and {steps}"),
+                  ("max_steps", self.ramp_steps <= self.max_steps <= MAX_STEPS,
+                   f">= ramp_steps and {steps}"),
+                  ("snapshot_every", 0 <= self.snapshot_every <= MAX_STEPS,
+                   f">= 0 and {steps}")]
         check_options(self, checks, source)
 
 
 def _fmt(v: float) -> str:
-    return repr(float(v))
+    """A deck number, exactly (repr); NumericalError if it is not finite (LIGGGHTS would
+    read inf or nan as a number and run with it)."""
+    v = float(v)
+    if not np.isfinite(v):
+        raise NumericalError(f"a LIGGGHTS deck number came out {v} (from the options and "
+                             "the packing's scale); nothing was written")
+    return repr(v)
 
 
 def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None = None,

@@ -37,11 +37,23 @@ from forcespace import Packing
 
 
 def check_options(options, checks, source="options") -> None:
-    """Raise InputError for the first failing ``(field, ok, allowed)`` check or non-finite value."""
+    """Raise InputError for the first failing ``(field, ok, allowed)`` check, or a value
+    that is not a finite number (an integer where the field's default is one)."""
+    import math
+    import numbers
+
     for name, ok, allowed in checks:
         value = getattr(options, name)
-        if not (ok and np.isfinite(value)):
-            raise InputError(source, name, f"must be {allowed}", got=value)
+        integral = isinstance(type(options).__dataclass_fields__[name].default, int)
+        kind = numbers.Integral if integral else numbers.Real
+        try:
+            number = isinstance(value, kind) and not isinstance(value, bool) \
+                and math.isfinite(float(value))
+        except OverflowError:           # an integer beyond any float
+            number = False
+        if not (number and ok):
+            what = "an integer" if integral else "a number"
+            raise InputError(source, name, f"must be {what} {allowed}", got=value)
 
 
 @dataclass

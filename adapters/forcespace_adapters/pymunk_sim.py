@@ -65,14 +65,19 @@ class PymunkOptions:
     twin_margin: float = 2.0
 
     def validate(self, source="options"):
-        checks = [("dt", self.dt > 0, "> 0"), ("iterations", self.iterations >= 1, ">= 1"),
+        big = 10 ** 12       # steps: beyond any run (pymunk does ~1e4 steps/s)
+        checks = [("dt", 0 < self.dt <= 1e3, "in (0, 1e3] t0"),
+                  ("iterations", 1 <= self.iterations <= 2 ** 31 - 1,
+                   "in [1, 2**31 - 1] (a C int of pymunk)"),
                   ("damping", 0 < self.damping <= 1, "in (0, 1]"),
-                  ("slop", self.slop >= 0, ">= 0"), ("bias", 0 < self.bias < 1, "in (0, 1)"),
-                  ("tolerance", self.tolerance > 0, "> 0"),
-                  ("ramp_steps", self.ramp_steps >= 1, ">= 1"),
-                  ("check_every", self.check_every >= 1, ">= 1"),
-                  ("max_steps", self.max_steps >= 1, ">= 1"),
-                  ("twin_margin", self.twin_margin >= 0, ">= 0")]
+                  ("slop", 0 <= self.slop <= 1, "in [0, 1] R"),
+                  ("bias", 0 < self.bias < 1, "in (0, 1)"),
+                  ("tolerance", 0 < self.tolerance < 1, "in (0, 1) <Fn> (a residual of "
+                   "<Fn> or more is no static state)"),
+                  ("ramp_steps", 1 <= self.ramp_steps <= big, f"in [1, {big:.0e}]"),
+                  ("check_every", 1 <= self.check_every <= big, f"in [1, {big:.0e}]"),
+                  ("max_steps", 1 <= self.max_steps <= big, f"in [1, {big:.0e}]"),
+                  ("twin_margin", 0 <= self.twin_margin <= 1e3, "in [0, 1e3] R")]
         check_options(self, checks, source)
 
 

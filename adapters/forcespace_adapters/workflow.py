@@ -121,6 +121,11 @@ def run(code: str, directory, binary=None, timeout=None, progress=None,
     meta = _run_json(directory)
     if meta["code"] != code:
         raise InputError(directory, "run.json code", f"this directory is for {meta['code']}", got=code)
+    import math
+    if timeout is not None and not (isinstance(timeout, (int, float))
+                                    and math.isfinite(timeout) and 0 < timeout <= 1e9):
+        raise InputError("options", "timeout", "must be a number of seconds in (0, 1e9]",
+                         got=timeout)
     d = Path(directory)
     probe_writable(d, d, "DIRECTORY")          # written into, never replaced
     if code == "liggghts":

@@ -48,3 +48,37 @@ def test_the_library_refuses_them_too():
                       ({"gap_tol": -1.0}, "gap_tol")):
         with pytest.raises(InputError, match=f"{PACK}: {field} = "):
             slice_problem(p, 28.0, **kw)
+
+
+BIG = "99999999999999999999"        # beyond int64
+
+
+@pytest.mark.parametrize("argv, option, words", [
+    # issue 48: --kn 1e308 wrote inf into the deck (exit 0); integers beyond int64 ended
+    # in a traceback
+    (["export", "liggghts", "--kn", "1e308"], "kn", "[1, 1e12]"),
+    (["export", "liggghts", "--tolerance", "1e300"], "tolerance", "(0, 1)"),
+    (["export", "liggghts", "--max-steps", BIG], "max_steps", "<= 2147483647"),
+    (["export", "liggghts", "--ramp-steps", BIG], "ramp_steps", "<= 2147483647"),
+    (["export", "liggghts", "--check-every", BIG], "check_every", "<= 2147483647"),
+    (["export", "pymunk", "--iterations", BIG], "iterations", "[1, 2**31 - 1]"),
+    (["export", "pymunk", "--max-steps", BIG], "max_steps", "[1, 1e+12]"),
+    (["export", "pymunk", "--dt", "1e308"], "dt", "(0, 1e3]"),
+])
+def test_export_options_out_of_range_are_one_line(tmp_path, capsys, no_work, argv, option,
+                                                  words):
+    pytest.importorskip("forcespace_adapters")
+    assert main([*argv[:2], str(PACK), "-o", str(tmp_path / "d"), *argv[2:]]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "Traceback" not in err[0], err
+    assert f"command line: {option} = " in err[0] and words in err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_deck_never_holds_a_number_that_is_not_finite(tmp_path):
+    pytest.importorskip("forcespace_adapters")
+    from forcespace.errors import NumericalError
+    from forcespace_adapters import liggghts
+    with pytest.raises(NumericalError, match="came out inf"):
+        liggghts._fmt(float("inf"))
+    assert liggghts._fmt(0.1) == "0.1"
