@@ -64,8 +64,8 @@ from pathlib import Path
 
 import numpy as np
 
-from forcespace.extend import (check_output_dir, mark_run_dir, new_temp_dir,
-                               recording_new_entries, replace_run_dir)
+from forcespace.extend import (check_output_dir, mark_run_dir, recording_new_entries,
+                               writing_run_dir)
 
 from forcespace.errors import ForcespaceError, InputError, NumericalError
 from forcespace.extend import BOTTOM, TOP
@@ -174,8 +174,10 @@ def _fmt(v: float) -> str:
 
 
 def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None = None,
-               source="packing") -> Path:
-    """Write the LIGGGHTS deck for ``problem`` into ``directory`` (replaced atomically).
+               source="packing", also=None) -> Path:
+    """Write the LIGGGHTS deck for ``problem`` into ``directory`` (replaced atomically,
+    :func:`forcespace.io.outputs.writing_run_dir`); ``also(folder)`` writes further files
+    into the folder before it takes the directory's place.
 
     Refuses (InputError) what LIGGGHTS cannot represent exactly: loads with a
     torque, slices (no walls), packings not periodic in x.
@@ -299,9 +301,7 @@ variable perr equal abs(c_ftop+{_fmt(T)})
         snap_off = "undump sc\nundump sa\n"
 
     directory = check_output_dir(directory)
-    directory.parent.mkdir(parents=True, exist_ok=True)
-    tmp = new_temp_dir(directory)
-    try:
+    with writing_run_dir(directory) as tmp:    # replaces it only if all in it is ours
         with open(tmp / "data.lmp", "w") as f:
             f.write("LAMMPS data file written by forcespace_adapters.liggghts\n\n")
             f.write(f"{ids.size} atoms\n2 atom types\n\n")
@@ -437,10 +437,8 @@ run 0
                 "packing": {"scene_name": p.scene_name, "seed": p.seed,
                             "fingerprint": p.fingerprint}}
         (tmp / "deck.json").write_text(json.dumps(meta, indent=1))
-        replace_run_dir(tmp, directory)   # only if nothing in it is anyone else's
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+        if also is not None:
+            also(tmp)
     return directory
 
 

@@ -18,8 +18,8 @@ import numpy as np
 
 from forcespace.errors import InputError
 from forcespace import Packing
-from forcespace.extend import (check_output_dir, check_output_file, new_temp_dir,
-                               probe_writable, recording_new_entries, replace_run_dir)
+from forcespace.extend import (check_output_dir, check_output_file, probe_writable,
+                               recording_new_entries, writing_run_dir)
 from forcespace import read_packing, write_packing
 
 from . import liggghts
@@ -89,26 +89,27 @@ def export(code: str, packing, directory, options=None, y_range=None,
         rigid, source = read_packing(packing), packing
     prob = soft_problem(rigid, y_range, top=top, source=source)
     d = check_output_dir(directory)
+
+    def run_files(folder: Path) -> None:
+        if isinstance(packing, Packing):
+            write_packing(rigid, folder / "rigid.h5")
+        else:
+            shutil.copyfile(packing, folder / "rigid.h5")
+        _write_json(folder / "run.json", {
+            "code": code, "options": asdict(opt), "top": top,
+            "units": "kn in <Fn>/R, tolerances in <Fn>, pymunk dt in sqrt(m_min R/<Fn>)",
+            "y_range": list(y_range) if y_range is not None else None,
+            "packing": str(Path(packing).resolve()) if not isinstance(packing, Packing)
+            else None})
+
     if code == "liggghts":
         if y_range is not None:
             raise InputError(source, "slice", "LIGGGHTS export supports the full packing "
                              "only (slice loads need per-atom torques); use pymunk")
-        liggghts.write_deck(prob, d, opt, source=source)
+        liggghts.write_deck(prob, d, opt, source=source, also=run_files)
     else:
-        replace_run_dir(new_temp_dir(d), d)      # empty, recorded as forcespace's
-    with recording_new_entries(d):
-        if isinstance(packing, Packing):
-            write_packing(rigid, d / "rigid.h5")
-        else:
-            shutil.copyfile(packing, d / ".rigid.h5.tmp")
-            os.replace(d / ".rigid.h5.tmp", d / "rigid.h5")
-        _write_json(d / "run.json", {"code": code, "options": asdict(opt), "top": top,
-                                     "units": "kn in <Fn>/R, tolerances in <Fn>, pymunk dt "
-                                              "in sqrt(m_min R/<Fn>)",
-                                     "y_range": list(y_range) if y_range is not None
-                                     else None,
-                                     "packing": str(Path(packing).resolve())
-                                     if not isinstance(packing, Packing) else None})
+        with writing_run_dir(d) as folder:        # all of it at once, or nothing
+            run_files(folder)
     return d
 
 

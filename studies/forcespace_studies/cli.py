@@ -70,12 +70,14 @@ def _study_dir(args) -> Path:
     from pathlib import Path
 
     from forcespace.errors import InputError
-    from .runner import check_study_dir
+    from forcespace.extend import check_name_length
 
     from .report import STUDY_FILE, check_report_file, study_info
+    from .runner import check_study_dir
 
     name = args.study_name
     out = Path(args.output or (f"{name}-quick" if args.quick else name))
+    check_name_length(out)           # before any look at it
     if args.report_only:
         d = check_study_dir(out, create=False)
         if not any((d / "tasks").glob("*.json")):

@@ -344,6 +344,10 @@ def _study_seconds(study_dir: Path) -> dict:
             raise InputError(f, "(task result)", "is not readable JSON; delete it to run "
                              "the task again") from None
         if isinstance(doc, dict):
+            for k in ("wall_seconds", "cpu_seconds"):
+                if doc.get(k) is not None and (isinstance(doc[k], bool)
+                                               or not isinstance(doc[k], (int, float))):
+                    raise InputError(f, k, "must be a number of seconds", got=doc[k])
             wall += float(doc.get("wall_seconds") or 0.0)
             if doc.get("cpu_seconds") is not None:
                 cpu += float(doc["cpu_seconds"])
@@ -381,7 +385,47 @@ def _read_verdicts(study_dir: Path) -> dict:
     if not isinstance(doc, dict) or not {"study", "title", "verdicts"} <= set(doc):
         raise InputError(f, "(file)", "is not a study's verdicts (needs study, title, "
                          "verdicts)")
+    _check_verdicts(f, doc)
     return doc
+
+
+_TEXT, _NUMBER = (str,), (int, float)
+_DOC_FIELDS = {"study": _TEXT, "title": _TEXT, "text": _TEXT, "code_version": _TEXT,
+               "quick": (bool,), "rules_version": (int,), "worker_seconds": _NUMBER,
+               "cpu_seconds": _NUMBER, "cpu_tasks": (int,), "tasks_done": (int,),
+               "tasks_planned": (int,)}
+_VERDICT_FIELDS = {"claim": _TEXT, "ours": _TEXT, "verdict": _TEXT, "sampler": _TEXT,
+                   "kind": _TEXT, "rule": _TEXT, "quick_outcome": _TEXT, "study": _TEXT}
+
+
+def _check_verdicts(f: Path, doc: dict) -> None:
+    """InputError naming the file and the first entry of a study's verdicts.json that a
+    report cannot show: fields of the wrong type, a verdict outside :data:`VERDICTS`."""
+    def bad(field, allowed, got):
+        raise InputError(f, field, allowed, got=got)
+
+    def typed(where, fields, d):
+        for k, kinds in fields.items():
+            v = d.get(k)
+            if v is not None and (not isinstance(v, kinds) or (isinstance(v, bool)
+                                                               and bool not in kinds)):
+                bad(f"{where}{k}", "must be " + ("text" if kinds == _TEXT else
+                                                 "true or false" if kinds == (bool,) else
+                                                 "a number"), v)
+
+    typed("", _DOC_FIELDS, doc)
+    figures = doc.get("figures", [])
+    if not (isinstance(figures, list) and all(isinstance(x, str) for x in figures)):
+        bad("figures", "must be a list of file names", figures)
+    if not isinstance(doc["verdicts"], list):
+        bad("verdicts", "must be a list of verdicts", type(doc["verdicts"]).__name__)
+    for i, v in enumerate(doc["verdicts"]):
+        if not isinstance(v, dict) or not {"claim", "ours", "verdict"} <= set(v):
+            bad(f"verdicts[{i}]", "must be an object with claim, ours and verdict", v)
+        typed(f"verdicts[{i}].", _VERDICT_FIELDS, v)
+        if v["verdict"] not in (*VERDICTS, SMOKE):
+            bad(f"verdicts[{i}].verdict", f"must be one of {', '.join((*VERDICTS, SMOKE))}",
+                v["verdict"])
 
 
 def write_report(study_dirs, path) -> Path:

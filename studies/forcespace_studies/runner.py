@@ -41,7 +41,8 @@ from multiprocessing import get_context
 from pathlib import Path
 
 from forcespace.errors import ForcespaceError, InputError, require_int
-from forcespace.extend import clean_stale_temps, file_lock, jsonable, probe_writable, write_json
+from forcespace.extend import (check_name_length, clean_stale_temps, file_lock, jsonable,
+                               probe_writable, write_json)
 
 
 BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
@@ -244,6 +245,7 @@ def check_study_dir(out, create: bool = True, field: str = "-o/--output") -> Pat
     """The study directory as an absolute path, checked before any work: not a file,
     device or symbolic link; creatable (``create``) or existing, and writable."""
     d = Path(os.path.abspath(out))
+    check_name_length(d, field)
     if d.is_symlink():
         raise InputError(d, field, "is a symbolic link; give the study directory itself")
     if d.exists() and not d.is_dir():
@@ -458,6 +460,7 @@ def _connect(scheduler, timeout: float):
     if isinstance(scheduler, Client):
         return scheduler
     address = check_scheduler_address(scheduler)
+    _probe_scheduler(address, timeout)
     try:
         return Client(address, timeout=timeout, set_as_default=False)
     except MemoryError:
@@ -467,6 +470,37 @@ def _connect(scheduler, timeout: float):
     except Exception as exc:
         raise ClusterError(f"cannot reach a Dask scheduler at {address} within {timeout:g} s "
                            f"({type(exc).__name__}: {_first_line(exc)})") from None
+
+
+def _probe_scheduler(address: str, timeout: float) -> None:
+    """ClusterError unless a Dask peer answers the handshake at ``address`` within
+    ``timeout`` seconds. (distributed bounds the connection by its timeout but not the
+    handshake that follows: a peer that accepts and never speaks held a Client for 630 s.)
+    Runs in a thread of its own, so a caller's running event loop is left alone."""
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+
+    from distributed.comm import connect
+
+    async def handshake():
+        comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout)
+        await comm.close()
+
+    with ThreadPoolExecutor(1) as pool:
+        try:
+            pool.submit(asyncio.run, handshake()).result()
+        except asyncio.TimeoutError:
+            raise ClusterError(f"{address} accepted the connection but did not answer as a "
+                               f"Dask scheduler within {timeout:g} s; give the address "
+                               "`dask scheduler` prints") from None
+        except OSError as exc:
+            raise ClusterError(f"cannot reach a Dask scheduler at {address} within "
+                               f"{timeout:g} s ({type(exc).__name__}: {_first_line(exc)})") \
+                from None
+        except Exception:
+            raise ClusterError(f"{address} answered, but not as a Dask scheduler (its reply "
+                               "was not Dask's protocol); give the address `dask scheduler` "
+                               "prints") from None
 
 
 def _first_line(exc) -> str:

@@ -180,6 +180,73 @@ def test_a_liggghts_runs_own_files_let_its_deck_be_replaced(tmp_path, capsys):
     assert not (d / "screen.txt").exists()
 
 
+
+LONG = "n" * 240            # the filesystem takes 255 bytes; forcespace names files after it
+
+
+@pytest.mark.parametrize("argv", [
+    ["pack", "quick", "--n", "6", "-o", "{o}.h5"],
+    ["sample", "{p}", "--sampler", "relax", "-n", "2", "-o", "{o}.h5"],
+    ["select", "{p}", "--plate", "-o", "{o}.h5"],
+    ["draw", "{p}", "-o", "{o}.png"],
+    ["section", "{p}", "-n", "5", "-o", "{o}.png"],
+    ["view", "{p}", "-o", "{o}"],
+    ["export", "liggghts", "{p}", "-o", "{o}"],
+    ["export", "pymunk", "{p}", "-o", "{o}"],
+    ["import", "pymunk", "nowhere", "-o", "{o}.h5"],
+    ["study", "fig1", "--quick", "-o", "{o}"],
+    ["study", "report", "nowhere", "-o", "{o}.md"],
+    ["info", "{o}.h5"],
+    ["pack", "{o}.toml", "-o", "p.h5"],
+], ids=lambda a: " ".join(a[:2]) if a[0] in ("export", "import", "study") else a[0])
+def test_paths_over_the_filesystems_limit_are_one_line(tmp_path, capsys, argv):
+    # a name over 255 characters ended in a traceback (ENAMETOOLONG; issue 48); a name
+    # that leaves no room for the lock and temporary files named after it did too
+    if argv[0] in ("export", "import"):
+        pytest.importorskip("forcespace_adapters")
+    reads = argv[0] == "info" or argv[1].startswith("{o}")     # an input's name
+    for name in ([] if reads else [LONG]) + ["m" * 300, "folder_" * 40 + "/x"]:
+        args = [a.format(p=PACK, o=name) for a in argv]
+        assert main(args) == 2
+        line = one_line(capsys)
+        assert name[:20] in line and ("bytes" in line or "looked up" in line), line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_full_disk_while_view_and_export_write_is_one_line(tmp_path, capsys, monkeypatch):
+    # view on a full disk ended in a traceback (issue 48); the directory it replaces is
+    # left as it was, no temporary folder stays behind
+    import errno
+    from forcespace.io import viewers
+    d = tmp_path / "v"
+    assert main(["view", str(PACK), "-o", str(d)]) == 0
+    before = sorted(q.name for q in d.iterdir())
+    real = viewers.write_vtk
+
+    def full(packing, folder, ensemble=None):
+        real(packing, folder, ensemble)               # some files made it ...
+        raise OSError(errno.ENOSPC, "No space left on device", str(folder / "x.vtp"))
+
+    monkeypatch.setattr(viewers, "write_vtk", full)
+    capsys.readouterr()
+    assert main(["view", str(PACK), "-o", str(d)]) == 2
+    line = one_line(capsys)
+    assert f"{d}: (write): could not be written: No space left on device" in line
+    assert sorted(q.name for q in d.iterdir()) == before
+    assert sorted(q.name for q in tmp_path.iterdir()) == ["v"]
+    pytest.importorskip("forcespace_adapters")
+    from forcespace_adapters import workflow
+
+    def full_json(path, obj):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(workflow, "_write_json", full_json)
+    for code in ("liggghts", "pymunk"):
+        assert main(["export", code, str(PACK), "-o", str(tmp_path / code)]) == 2
+        assert "No space left on device" in one_line(capsys)
+    assert sorted(q.name for q in tmp_path.iterdir()) == ["v"]
+
+
 CORRUPTIONS = [
     ("disks", lambda f: f["disks"].__setitem__((0, 0), np.nan), "disks/x"),
     ("radius", lambda f: f["disks"].__setitem__((3, 2), -1.0), "disks/r"),

@@ -255,6 +255,76 @@ def test_a_peer_that_is_not_a_dask_scheduler_is_one_line(tmp_path, capsys):
         srv.close()
 
 
+def test_a_peer_that_accepts_and_never_speaks_is_one_line_within_the_timeout(tmp_path,
+                                                                            capsys):
+    # the connection was bounded by --connect-timeout, but not distributed's handshake
+    # after it: the study hung for 630 s (issue 48)
+    pytest.importorskip("distributed")
+    import socket
+    import threading
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(5)
+    held = []
+
+    def accept_and_hold():
+        while True:
+            try:
+                held.append(srv.accept()[0])          # and never a byte
+            except OSError:
+                return
+    threading.Thread(target=accept_and_hold, daemon=True).start()
+    try:
+        address = f"tcp://127.0.0.1:{srv.getsockname()[1]}"
+        t0 = time.perf_counter()
+        assert study("--quick", "-o", tmp_path / "t", "--scheduler", address,
+                     "--connect-timeout", 2) == 4
+        assert time.perf_counter() - t0 < 30
+        assert "did not answer as a Dask scheduler within 2 s" in one_line(capsys)
+        assert held                                  # it did accept
+    finally:
+        srv.close()
+        for c in held:
+            c.close()
+
+
+@pytest.mark.parametrize("edit, field", [
+    (lambda d: d["verdicts"][0].pop("ours"), "verdicts[0]"),
+    (lambda d: d["verdicts"][0].__setitem__("ours", 3.5), "verdicts[0].ours"),
+    (lambda d: d["verdicts"][0].__setitem__("verdict", "proven"), "verdicts[0].verdict"),
+    (lambda d: d.__setitem__("verdicts", "all reproduced"), "verdicts"),
+    (lambda d: d["verdicts"].append("reproduced"), "verdicts[1]"),
+    (lambda d: d.__setitem__("rules_version", "2"), "rules_version"),
+    (lambda d: d.__setitem__("worker_seconds", "long"), "worker_seconds"),
+    (lambda d: d.__setitem__("figures", [3]), "figures"),
+    (lambda d: d.__setitem__("title", ["t"]), "title"),
+])
+def test_malformed_verdicts_are_one_line_naming_the_entry(tmp_path, capsys, edit, field):
+    # malformed entries of a study's verdicts.json ended in tracebacks (issue 48)
+    assert study("--quick", "-o", tmp_path / "tiny", "--workers", 1) == 0
+    capsys.readouterr()
+    f = tmp_path / "tiny" / "verdicts.json"
+    doc = json.loads(f.read_text())
+    edit(doc)
+    f.write_text(json.dumps(doc))
+    assert main(["study", "report", str(tmp_path / "tiny"), "-o",
+                 str(tmp_path / "R.md")]) == 2
+    line = one_line(capsys)
+    assert f"{f}: {field}" in line, line
+    assert not (tmp_path / "R.md").exists()
+
+
+def test_a_task_file_with_a_malformed_time_is_one_line(tmp_path, capsys):
+    assert study("--quick", "-o", tmp_path / "tiny", "--workers", 1) == 0
+    capsys.readouterr()
+    task = tmp_path / "tiny" / "tasks" / "t0.json"
+    doc = json.loads(task.read_text())
+    doc["wall_seconds"] = "a while"
+    task.write_text(json.dumps(doc))
+    assert study("--quick", "-o", tmp_path / "tiny", "--report-only") == 2
+    assert f"{task}: wall_seconds" in one_line(capsys)
+
+
 # ---------------------------------------------------------------- retries and failures
 
 def test_failed_tasks_are_retried_reported_per_task_and_no_retry_keeps_them(

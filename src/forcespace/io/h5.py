@@ -22,7 +22,18 @@ from .. import __version__
 from ..errors import InputError
 from ..kernels import sources_hash
 
-_WRITE_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO}
+# what the filesystem answers to a write it refuses: disk full, file too large, quota,
+# read-only, permission, I/O error
+WRITE_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO}
+
+
+def write_refused(path, exc: BaseException) -> InputError | None:
+    """The one-line InputError for ``exc`` if it is a write the filesystem refused
+    (WRITE_ERRNOS) while writing ``path`` (whose old content was left as it was), else None."""
+    if isinstance(exc, OSError) and exc.errno in WRITE_ERRNOS:
+        return InputError(path, "(write)", f"could not be written: "
+                          f"{os.strerror(exc.errno)}; nothing was changed")
+    return None
 
 
 def _new_temp(path: Path) -> str:
@@ -53,9 +64,9 @@ def atomic_path(path):
     except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
-        if isinstance(exc, OSError) and exc.errno in _WRITE_ERRNOS:
-            raise InputError(path, "(write)", f"could not be written: {os.strerror(exc.errno)}; "
-                             f"nothing was changed") from None
+        refused = write_refused(path, exc)
+        if refused is not None:
+            raise refused from None
         raise
 
 

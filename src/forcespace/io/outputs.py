@@ -28,11 +28,49 @@ import stat
 from pathlib import Path
 
 from ..errors import InputError
+from .h5 import write_refused
 
 RUN_DIR_MARKER = ".forcespace-run"
 
 
+NAME_MARGIN = 32     # characters forcespace adds to an output's name for the files beside
+                     # it: .NAME.lock, .NAME.<8 hex>.tmp, NAME.checkpoint.h5 and its own
+
+
+def check_name_length(path, field: str = "-o/--output") -> None:
+    """InputError unless the filesystem takes ``path`` and the files forcespace names
+    after it: its name at most NAME_MAX - NAME_MARGIN characters (NAME_MAX, usually 255,
+    read from the filesystem), every folder's at most NAME_MAX, the whole absolute path
+    at most PATH_MAX - 2 NAME_MARGIN."""
+    p = Path(os.path.abspath(path))
+    known = next((q for q in (p, *p.parents) if _exists(q)), Path(p.anchor or "/"))
+    try:
+        name_max = os.pathconf(known, "PC_NAME_MAX")
+        path_max = os.pathconf(known, "PC_PATH_MAX")
+    except (OSError, ValueError, AttributeError):
+        name_max, path_max = 255, 4096
+    long = [part for part in p.parts[1:-1] if len(part.encode()) > name_max]
+    if long:
+        raise InputError(path, field, f"has a folder name of {len(long[0].encode())} bytes; "
+                         f"the filesystem takes at most {name_max}")
+    if len(p.name.encode()) > name_max - NAME_MARGIN:
+        raise InputError(path, field, f"has a name of {len(p.name.encode())} bytes; at most "
+                         f"{name_max - NAME_MARGIN} here (the filesystem takes {name_max}, and "
+                         "forcespace names lock and temporary files after it)")
+    if len(str(p).encode()) > path_max - 2 * NAME_MARGIN:
+        raise InputError(path, field, f"is {len(str(p).encode())} bytes long as an absolute "
+                         f"path; at most {path_max - 2 * NAME_MARGIN} here")
+
+
+def _exists(q: Path) -> bool:
+    try:
+        return q.exists()
+    except OSError:         # e.g. a name too long to look up
+        return False
+
+
 def _parent_writable(p: Path, field: str) -> None:
+    check_name_length(p, field)
     parent = p.parent if str(p.parent) else Path(".")
     try:
         parent.mkdir(parents=True, exist_ok=True)
@@ -66,11 +104,12 @@ def check_output_file(path, inputs=(), field: str = "-o/--output") -> Path:
     p = Path(path)
     if p.name in ("", ".", "..") or str(path).endswith(os.sep):
         raise InputError(p, field, "must name a file, not a directory")
+    check_name_length(p, field)
     for i in inputs:
         if i is None:
             continue
         q = Path(i)
-        same = q.exists() and p.exists() and os.path.samefile(p, q)
+        same = _exists(q) and p.exists() and os.path.samefile(p, q)
         if same or p.resolve() == q.resolve():
             raise InputError(p, field, f"is also an input ({q}); choose another output file")
     if p.is_symlink():
@@ -110,6 +149,7 @@ def check_output_dir(path, field: str = "-o/--output") -> Path:
     directory with an entry forcespace did not write (see :func:`foreign_entries`).
     Returns the path."""
     d = Path(path)
+    check_name_length(d, field)
     if d.is_symlink() or (d.exists() and not d.is_dir()):
         raise InputError(d, field, "exists and is not a directory")
     here = Path.cwd().resolve()
@@ -176,10 +216,17 @@ def recording_new_entries(path):
     before = _entries(d)
     try:
         yield d
-    finally:
-        new = _entries(d) - before
-        if new:
-            mark_run_dir(d, new)
+    except BaseException:
+        with contextlib.suppress(OSError):    # e.g. a full disk: the block's error counts
+            _record_new(d, before)
+        raise
+    _record_new(d, before)
+
+
+def _record_new(d: Path, before: set) -> None:
+    new = _entries(d) - before
+    if new:
+        mark_run_dir(d, new)
 
 
 def new_temp_dir(d) -> Path:
@@ -195,6 +242,26 @@ def new_temp_dir(d) -> Path:
         except FileExistsError:
             continue
     raise FileExistsError(f"no free temporary name beside {d}")
+
+
+@contextlib.contextmanager
+def writing_run_dir(directory, field: str = "-o/--output"):
+    """Yield an empty folder beside ``directory`` to write into; when the block ends it
+    takes the directory's place (:func:`replace_run_dir`). On any error the folder is
+    removed and ``directory`` left as it was; a write the filesystem refuses (disk full,
+    read-only, ...) is one InputError naming ``directory``."""
+    d = Path(directory)
+    d.parent.mkdir(parents=True, exist_ok=True)
+    tmp = new_temp_dir(d)
+    try:
+        yield tmp
+        replace_run_dir(tmp, d, field)
+    except BaseException as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        refused = write_refused(d, exc)
+        if refused is not None:
+            raise refused from None
+        raise
 
 
 def replace_run_dir(tmp, directory, field: str = "-o/--output") -> Path:

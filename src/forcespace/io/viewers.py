@@ -30,15 +30,13 @@ is |ft| / (mu_k fn) with mu_k the contact's Coulomb coefficient (plate_mu on wal
 """
 from __future__ import annotations
 
-import contextlib
-import shutil
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
 from ..model.walls import BOTTOM, LEFT, RIGHT, TOP
-from .outputs import check_output_dir, new_temp_dir, replace_run_dir
+from .outputs import check_output_dir, writing_run_dir
 
 FORMATS = ("ovito", "vtk")
 WALL_POINT_RADIUS = 0.05      # [R] radius of the wall-contact particles in OVITO
@@ -283,17 +281,10 @@ def write_viewer_files(packing, directory, formats=FORMATS, ensemble=None) -> li
     if ensemble is not None:
         ensemble.contact_columns(packing)          # refuse a foreign ensemble first
     d = check_output_dir(directory)
-    d.parent.mkdir(parents=True, exist_ok=True)
-    tmp = new_temp_dir(d)
-    try:
+    with writing_run_dir(d) as tmp:
         files = []
         if "ovito" in formats:
             files += write_ovito(packing, tmp, ensemble)
         if "vtk" in formats:
             files += write_vtk(packing, tmp, ensemble)
-        replace_run_dir(tmp, d)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            shutil.rmtree(tmp)
-        raise
     return [d / f.name for f in files]

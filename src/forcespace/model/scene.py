@@ -510,11 +510,15 @@ def _scene_source(name_or_path):
     from importlib.resources import files
 
     p = Path(name_or_path)
-    if not p.is_file() and p.suffix in ("", ".toml") and p.parent == Path("."):
+    try:
+        found = p.is_file()
+    except OSError as exc:            # e.g. a name longer than the filesystem takes
+        raise InputError(p, "(file)", f"cannot be looked up ({exc.strerror})") from None
+    if not found and p.suffix in ("", ".toml") and p.parent == Path("."):
         bundled = files(SCENES_PACKAGE) / (p.stem + ".toml")
         if bundled.is_file():
             return bundled.read_text(encoding="utf-8"), f"{p.stem}.toml (bundled scene)"
-    if not p.is_file():
+    if not found:
         raise InputError(p, "(file)", "does not exist or is not a file; a scene is a TOML "
                          "file or the name of a bundled scene: " + ", ".join(scenes()))
     try:
