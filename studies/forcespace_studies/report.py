@@ -400,7 +400,8 @@ _VERDICT_FIELDS = {"claim": _TEXT, "ours": _TEXT, "verdict": _TEXT, "sampler": _
 
 def _check_verdicts(f: Path, doc: dict) -> None:
     """InputError naming the file and the first entry of a study's verdicts.json that a
-    report cannot show: fields of the wrong type, a verdict outside :data:`VERDICTS`."""
+    report cannot show: fields of the wrong type, a verdict outside :data:`PAPER_VERDICTS`,
+    :data:`HYPOTHESIS_VERDICTS` and :data:`SMOKE`."""
     def bad(field, allowed, got):
         raise InputError(f, field, allowed, got=got)
 
@@ -411,6 +412,7 @@ def _check_verdicts(f: Path, doc: dict) -> None:
                                                                and bool not in kinds)):
                 bad(f"{where}{k}", "must be " + ("text" if kinds == _TEXT else
                                                  "true or false" if kinds == (bool,) else
+                                                 "an integer" if kinds == (int,) else
                                                  "a number"), v)
 
     typed("", _DOC_FIELDS, doc)
@@ -421,11 +423,12 @@ def _check_verdicts(f: Path, doc: dict) -> None:
         bad("verdicts", "must be a list of verdicts", type(doc["verdicts"]).__name__)
     for i, v in enumerate(doc["verdicts"]):
         if not isinstance(v, dict) or not {"claim", "ours", "verdict"} <= set(v):
-            bad(f"verdicts[{i}]", "must be an object with claim, ours and verdict", v)
+            bad(f"verdicts[{i}]", "must be an object with claim, ours and verdict",
+                sorted(v) if isinstance(v, dict) else type(v).__name__)
         typed(f"verdicts[{i}].", _VERDICT_FIELDS, v)
-        if v["verdict"] not in (*VERDICTS, SMOKE):
-            bad(f"verdicts[{i}].verdict", f"must be one of {', '.join((*VERDICTS, SMOKE))}",
-                v["verdict"])
+        known = tuple(dict.fromkeys(PAPER_VERDICTS + HYPOTHESIS_VERDICTS + (SMOKE,)))
+        if v["verdict"] not in known:
+            bad(f"verdicts[{i}].verdict", f"must be one of {', '.join(known)}", v["verdict"])
 
 
 def write_report(study_dirs, path) -> Path:

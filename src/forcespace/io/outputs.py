@@ -159,12 +159,12 @@ def check_output_dir(path, field: str = "-o/--output") -> Path:
     if d.is_dir() and any(d.iterdir()):
         foreign = foreign_entries(d)
         if foreign:
+            others = len(foreign) - 1
             what = ("a non-empty directory that forcespace did not create"
                     if own_entries(d) is None else
                     f"a directory forcespace made, but {foreign[0]!r}"
-                    + (f" and {len(foreign) - 1} other entr"
-                       f"{'y' if len(foreign) == 2 else 'ies'}" if len(foreign) > 1 else "")
-                    + " in it are not forcespace's")
+                    + (f" and {others} other entr{'y' if others == 1 else 'ies'} in it are"
+                       if others else " in it is") + " not forcespace's")
             raise InputError(d, field, f"is {what}; forcespace replaces only directories "
                              "that hold nothing but its own files: choose a new or empty "
                              "directory (nothing was changed)")
