@@ -452,6 +452,10 @@ def find_binary(binary: str | None = None) -> str:
     return path
 
 
+RUN_FILES = ("screen.txt", "log.liggghts", "atoms.dump", "contacts.dump", "status.json",
+             "snap_atoms.dump", "snap_contacts.dump")    # what a run writes into its deck
+
+
 def run_deck(directory, binary: str | None = None, timeout: float | None = None,
              show_progress: bool = False) -> dict:
     """Run LIGGGHTS on a deck directory; write and return ``status.json``.
@@ -472,7 +476,8 @@ def run_deck(directory, binary: str | None = None, timeout: float | None = None,
     if shutil.which("stdbuf"):
         cmd = ["stdbuf", "-o0", "-e0"] + cmd
     t0 = time.perf_counter()
-    with recording_new_entries(d):        # the run's files are forcespace's own
+    mark_run_dir(d, RUN_FILES)            # the run's files are forcespace's own, also
+    with recording_new_entries(d):        # after a kill; and whatever else it writes
         rc = _run_streaming(cmd, d, timeout, _deck_progress(d, show_progress))
     wall = time.perf_counter() - t0
     text = (d / "screen.txt").read_text(errors="replace")
@@ -488,7 +493,6 @@ def run_deck(directory, binary: str | None = None, timeout: float | None = None,
     tmp = d / ".status.json.tmp"
     tmp.write_text(json.dumps(status, indent=1))
     os.replace(tmp, d / "status.json")
-    mark_run_dir(d, ["status.json"])
     return status
 
 

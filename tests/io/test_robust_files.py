@@ -175,7 +175,12 @@ def test_a_liggghts_runs_own_files_let_its_deck_be_replaced(tmp_path, capsys):
     assert foreign_entries(d) == [] and "in.liggghts" in own_entries(d)
     main(["run", "liggghts", str(d)])         # converged or not: its files are its own
     assert {"screen.txt", "log.liggghts", "atoms.dump", "status.json"} <= own_entries(d)
+    (d / ".status.json.tmp").write_text("{")           # as a run killed while writing it
+    (d / ".rigid.h5.0a1b2c3d.tmp").write_bytes(b"")    # leaves them: still its own
     assert foreign_entries(d) == []
+    (d / ".notes.tmp").write_text("mine")              # not a temporary file of its own
+    assert foreign_entries(d) == [".notes.tmp"]
+    (d / ".notes.tmp").unlink()
     assert main(["export", "liggghts", str(PACK), "-o", str(d)]) == 0
     assert not (d / "screen.txt").exists()
 

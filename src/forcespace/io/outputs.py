@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import secrets
 import shutil
 import stat
@@ -191,8 +192,18 @@ def foreign_entries(path) -> list[str]:
     """Entries under the directory ``path`` that forcespace did not record as its own
     (sorted; the marker itself excluded)."""
     d = Path(path)
-    own = own_entries(d) or set()
-    return sorted(e for e in _entries(d) if e != RUN_DIR_MARKER and e not in own)
+    own = (own_entries(d) or set()) | {RUN_DIR_MARKER}
+    return sorted(e for e in _entries(d) if e not in own and not own & _temp_of(e))
+
+
+def _temp_of(entry: str) -> set[str]:
+    """The entries whose temporary file ``entry`` may be (``.NAME.tmp`` or
+    ``.NAME.<8 hex>.tmp``, as forcespace's writers name them; a killed run leaves them)."""
+    m = re.fullmatch(r"(.*/)?\.(.+?)(\.[0-9a-f]{8})?\.tmp", entry)
+    if m is None:
+        return set()
+    folder = m.group(1) or ""
+    return {folder + m.group(2), f"{folder}.{m.group(2)}"}
 
 
 def mark_run_dir(path, entries=None) -> None:
@@ -203,9 +214,13 @@ def mark_run_dir(path, entries=None) -> None:
     own = (own_entries(d) or set()) | new
     own.discard(RUN_DIR_MARKER)
     tmp = d / f".{RUN_DIR_MARKER}.{secrets.token_hex(4)}.tmp"
-    tmp.write_text("# written by forcespace: the directory is replaced only while it holds "
-                   "nothing but these entries\n" + "".join(f"{e}\n" for e in sorted(own)))
-    os.replace(tmp, d / RUN_DIR_MARKER)
+    try:
+        tmp.write_text("# written by forcespace: the directory is replaced only while it "
+                       "holds nothing but these entries\n"
+                       + "".join(f"{e}\n" for e in sorted(own)))
+        os.replace(tmp, d / RUN_DIR_MARKER)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 @contextlib.contextmanager
