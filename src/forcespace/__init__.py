@@ -11,7 +11,9 @@ The public API (``import forcespace as fs``)::
     scenes()                          the bundled scenes {name: description}
     load_scene(name_or_path)          a validated Scene (every key in model.scene.SCHEMA)
     jam(scene, **overrides)           jam a packing by the scene's protocol -> Packing
+                                      (a SpherePacking for a 3-D scene: box.dimension = 3)
     Packing                           a static packing and its force network
+    SpherePacking                     the same for spheres (paper3d, quick3d)
     read_packing(path), write_packing(packing, path)
     slice_problem(packing, height)    the paper's slice: S of its interior contacts
     full_problem(packing)             the whole packing (bottom plate a support)
@@ -21,6 +23,10 @@ The public API (``import forcespace as fs``)::
     frame_problem(packing, region)    S of a frame's region ("rim=1", "all", Region(...))
     Measured(...).compute(problem)    a measured network against S: imbalance, Coulomb,
                                       distance, nearest network, ranges, empty S relaxed
+    sphere_plate_problem(packing), sphere_full_problem(packing), sphere_slice_problem(
+        packing, height)              the statics of spheres: 6 equations per sphere, 3
+                                      unknowns per contact, Coulomb second-order cones
+    nearest_admissible(problem, target)   a point of S for spheres (Clarabel's SOCP)
     ForceSpace(...).compute(problem)  exact analysis of S: dim, bounded, centre, radius,
                                       ranges, domains, distance(x), plot
     HitAndRun(n, seed).compute(problem)   uniform samples of S (coordinate hit-and-run,
@@ -52,7 +58,12 @@ from .errors import ForcespaceError, InputError, NumericalError  # noqa: E402
 # name -> module; imported on first use, so `import forcespace` (and the CLI) stays light
 _LAZY = {
     "load_scene": "model.scene", "scenes": "model.scene", "Scene": "model.scene",
-    "Packing": "model.packing",
+    "Packing": "model.packing", "SpherePacking": "model.sphere_packing",
+    "SphereStaticsProblem": "model.sphere_problem",
+    "sphere_full_problem": "model.sphere_problem",
+    "sphere_plate_problem": "model.sphere_problem",
+    "sphere_slice_problem": "model.sphere_problem",
+    "nearest_admissible": "space.conic",
     "slice_problem": "model.problem", "full_problem": "model.problem",
     "plate_problem": "model.problem", "StaticsProblem": "model.problem",
     "frame_problem": "model.frame", "Region": "model.frame",

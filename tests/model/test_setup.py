@@ -68,16 +68,22 @@ def test_the_checkpoint_identity_ignores_the_step_budget_only():
     assert other.identity != Setup.from_scene(sc).identity
 
 
-def test_dimension_is_the_number_of_axes_and_the_disk_engine_refuses_three():
+def test_dimension_is_the_number_of_axes_and_the_engine_takes_two_or_three():
     from forcespace.engine.bodies import kernel_box
+    from forcespace.engine.records import Box3
     sides = Boundary(lateral=(12.0,), periodic=(False,), bottom=True, top=Plate(1.0, 10.0))
     box = kernel_box(sides)
     assert (box.width, box.periodic, box.has_bottom, box.has_top, box.has_sides) == \
         (12.0, False, True, True, True)
-    spheres = Boundary(lateral=(10.0, 10.0), periodic=(True, True), bottom=True, top=None)
+    spheres = Boundary(lateral=(10.0, 12.0), periodic=(True, True), bottom=True, top=None)
     assert spheres.dim == 3 and spheres.has_walls
-    with pytest.raises(InputError, match="2-D"):
-        kernel_box(spheres)
+    assert kernel_box(spheres) == Box3(10.0, 12.0, True, False)
+    with pytest.raises(InputError, match="periodic in x and y"):
+        kernel_box(Boundary(lateral=(10.0, 10.0), periodic=(True, False), bottom=True,
+                            top=None))
+    with pytest.raises(InputError, match="2-D .* or 3-D"):
+        kernel_box(Boundary(lateral=(10.0, 10.0, 10.0), periodic=(True,) * 3, bottom=True,
+                            top=None))
 
 
 def test_a_packing_carries_its_setup_into_and_out_of_its_file(tmp_path):

@@ -16,10 +16,11 @@ def register(sub):
     p.add_argument("-o", "--output", required=True, help="packing file to write (HDF5)")
     p.add_argument("--mu", type=float, help="override physics.mu")
     p.add_argument("--seed", type=int, help="override scene.seed")
-    p.add_argument("--n", type=int, help="override disks.n")
+    p.add_argument("--n", type=int, help="override disks.n (spheres in a 3-D scene)")
     p.add_argument("--scale-box", action="store_true",
-                   help="with --n: scale box.width and the slice height by sqrt(n / n_scene), "
-                        "so the box keeps its shape (without it a larger n makes a taller column)")
+                   help="with --n: scale box.width and the slice height by sqrt(n / n_scene) "
+                        "(spheres: the lateral extents by (n / n_scene)^(1/3)), so the box "
+                        "keeps its shape (without it a larger n makes a taller column)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_pack)
 
@@ -67,7 +68,8 @@ def cmd_pack(args) -> int:
             packing.meta["scaled_box"] = scaled
         write_packing(packing, args.output)
     s = packing.summary()
-    print(f"{Path(args.output)}: {s['n_disks']} disks, {s['n_contacts']} contacts, "
+    grains = f"{s['n_spheres']} spheres" if "n_spheres" in s else f"{s['n_disks']} disks"
+    print(f"{Path(args.output)}: {grains}, {s['n_contacts']} contacts, "
           f"z = {s['z']:.3f} ({s['n_rattlers']} rattlers), mu = {s['mu']:g}, "
           f"residual = {s['equilibrium_residual']:.2e}, max overlap = {s['max_overlap']:.2e} R, "
           f"{s['steps']} steps, {s['wall_seconds']:.1f} s")

@@ -16,7 +16,7 @@ from ..model.radii import draw_radii
 from ..model.setup import Boundary, Setup
 from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP
 from .certificate import CertificateSettings
-from .records import Box, StepSettings, SweepSettings
+from .records import Box, Box3, StepSettings, SweepSettings
 
 
 @dataclass
@@ -37,9 +37,68 @@ class Bodies:
     fy_ext: np.ndarray
     contacts: tuple | None = None  # last step's ContactForces (sorted keys, rn, rt)
 
+    dim = 2
+    state_fields = ("x", "y", "th", "vx", "vy", "w")    # what a checkpoint saves
+
     @property
     def n(self) -> int:
         return self.r.shape[0]
+
+    @property
+    def vertical(self) -> np.ndarray:
+        """Positions along the vertical axis (nb,) [R] (wall slots: the plates)."""
+        return self.y
+
+    @property
+    def load(self) -> np.ndarray:
+        """External force along the vertical (nb,) [sigma] (gravity, the plate load)."""
+        return self.fy_ext
+
+    @property
+    def masses(self) -> np.ndarray:
+        """Disk masses (n,) [rho R^2], read off the kernels' inverse masses."""
+        return 1.0 / self.inv_mx[:self.n]
+
+
+@dataclass
+class SphereBodies:
+    """Body arrays of the 3-D kernels: (n+4, 3) each (spheres, then the wall slots) but
+    ``inv_i`` (n+4,) and ``r`` (n,); the fields of
+    :class:`~forcespace.engine.records.BodyArrays3` (units there). The orchestration
+    (compression, rest criterion, checkpoints) reads both kinds of bodies through
+    ``n``, ``dim``, ``state_fields``, ``vertical`` and ``load``."""
+
+    pos: np.ndarray
+    th: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    r: np.ndarray          # (n,)
+    inv_m: np.ndarray
+    inv_i: np.ndarray      # (n+4,)
+    f_ext: np.ndarray
+    contacts: tuple | None = None  # last step's ContactForces (sorted keys, rn, rt (Nc, 3))
+
+    dim = 3
+    state_fields = ("pos", "th", "v", "w")
+
+    @property
+    def n(self) -> int:
+        return self.r.shape[0]
+
+    @property
+    def vertical(self) -> np.ndarray:
+        """Positions along z (nb,) [R] (a view; wall slots: the plates)."""
+        return self.pos[:, 2]
+
+    @property
+    def load(self) -> np.ndarray:
+        """External force along z (nb,) [sigma] (a view)."""
+        return self.f_ext[:, 2]
+
+    @property
+    def masses(self) -> np.ndarray:
+        """Sphere masses (n,) [rho R^3], read off the kernels' inverse masses."""
+        return 1.0 / self.inv_m[:self.n, 0]
 
 
 def random_radii(setup: Setup, rng) -> np.ndarray:
@@ -125,23 +184,93 @@ def make_bodies(setup: Setup, x, y, r, height, density=None) -> Bodies:
                   inv_mx, inv_my, inv_i, fy)
 
 
-def kernel_box(boundary: Boundary) -> Box:
-    """The kernels' record of a 2-D container (:class:`~forcespace.model.setup.Boundary`)."""
+def loose_start3(setup: Setup, rng) -> tuple[np.ndarray, np.ndarray, float]:
+    """Random sequential placement of non-overlapping spheres in the periodic box.
+
+    Returns pos (n, 3), r (n,) [R] and the box height [R] at the scene's initial packing
+    (volume) fraction; spheres are placed largest first, x and y periodic. With
+    ``solver.sweep_block`` > 0 the spheres are numbered layer by layer (layers and rows
+    one largest diameter thick), so that contacts sorted by index are near in space.
+    ``rng``: the placement stream, radii drawn first (as in 2-D).
+    """
+    r = np.sort(random_radii(setup, rng))[::-1].copy()
+    lx, ly = setup.boundary.lateral
+    fraction = setup.jamming.initial_packing_fraction
+    height = max(4.0 / 3.0 * np.pi * (r**3).sum() / (lx * ly * fraction), 2.0 * r.max() + 1e-9)
+    size = np.array([lx, ly])
+    pos = np.empty((r.size, 3))
+    for i, ri in enumerate(r):
+        for _ in range(100000):
+            p = np.array([rng.uniform(0, lx), rng.uniform(0, ly),
+                          rng.uniform(ri, height - ri)])
+            d = pos[:i] - p
+            d[:, :2] -= size * np.round(d[:, :2] / size)
+            if i == 0 or (np.sqrt((d * d).sum(1)) - r[:i] - ri).min() > 0:
+                pos[i] = p
+                break
+        else:
+            raise NumericalError(
+                f"could not place sphere {i} without overlap at initial packing fraction "
+                f"{fraction}: lower box.initial_packing_fraction")
+    if setup.solver.sweep_block > 0:   # number the spheres layer by layer (local sweeps)
+        cell = 2.0 * r.max()
+        order = np.lexsort((pos[:, 0], np.floor(pos[:, 1] / cell), np.floor(pos[:, 2] / cell)))
+        pos, r = pos[order], r[order]
+    return pos, r, height
+
+
+def make_sphere_bodies(setup: Setup, pos, r, height, density=None) -> SphereBodies:
+    """Kernel body arrays for spheres and plates (3-D :func:`make_bodies`): solid spheres,
+    m = density 4/3 pi r^3, I = 2/5 m r^2 (rotation only when the physics asks for it);
+    the top plate at ``height`` [R] moves along z only under its load."""
+    n = r.shape[0]
+    nb = n + N_WALL_SLOTS
+    sigma = setup.force_unit
+    physics, top = setup.physics, setup.boundary.top
+    rho = setup.grains.density if density is None else np.asarray(density, float)
+    m = rho * 4.0 / 3.0 * np.pi * r**3
+    inv_m = np.zeros((nb, 3))
+    inv_i = np.zeros(nb)
+    f_ext = np.zeros((nb, 3))
+    inv_m[:n] = (1.0 / m)[:, None]
+    if physics.rotation:
+        inv_i[:n] = 1.0 / (0.4 * m * r**2)
+    if physics.gravity > 0:
+        f_ext[:n, 2] = -m * (physics.gravity / sigma)
+    pos_all = np.zeros((nb, 3))
+    pos_all[:n] = pos
+    if top is not None:
+        pos_all[n + SLOT_TOP, 2] = height
+        inv_m[n + SLOT_TOP, 2] = 1.0 / top.mass
+        f_ext[n + SLOT_TOP, 2] = -top.force / sigma
+    return SphereBodies(pos_all, np.zeros((nb, 3)), np.zeros((nb, 3)), np.zeros((nb, 3)),
+                        r.copy(), inv_m, inv_i, f_ext)
+
+
+def kernel_box(boundary: Boundary) -> Box | Box3:
+    """The kernels' record of a container (:class:`~forcespace.model.setup.Boundary`): a
+    Box in 2-D, a Box3 in 3-D (periodic in x and y)."""
+    if boundary.dim == 3:
+        if not all(boundary.periodic):
+            raise InputError("setup", "boundary", "a 3-D box must be periodic in x and y",
+                             got=boundary.periodic)
+        return Box3(float(boundary.lateral[0]), float(boundary.lateral[1]),
+                    bool(boundary.bottom), boundary.top is not None)
     if boundary.dim != 2:
-        raise InputError("setup", "boundary", "the disk engine runs in 2-D (one lateral "
-                         "axis)", got=boundary.dim)
+        raise InputError("setup", "boundary", "the engine runs in 2-D (one lateral axis) "
+                         "or 3-D (two)", got=boundary.dim)
     periodic = bool(boundary.periodic[0])
     return Box(float(boundary.lateral[0]), periodic, bool(boundary.bottom),
                boundary.top is not None, not periodic)
 
 
-def velocity_scale(setup: Setup, bodies: Bodies) -> float:
+def velocity_scale(setup: Setup, bodies: Bodies | SphereBodies) -> float:
     """v0 = sqrt(F rbar / mbar) in internal units [R/T]: F the top-plate load, or the mean
-    disk weight."""
+    grain weight."""
     n = bodies.n
-    m = 1.0 / bodies.inv_mx[:n]
-    f0 = -bodies.fy_ext[n + SLOT_TOP] if setup.boundary.top is not None \
-        else float(-bodies.fy_ext[:n].mean())
+    m = bodies.masses
+    f0 = -bodies.load[n + SLOT_TOP] if setup.boundary.top is not None \
+        else float(-bodies.load[:n].mean())
     return float(np.sqrt(f0 * bodies.r.mean() / m.mean()))
 
 

@@ -28,12 +28,11 @@ from .bodies import Bodies, certificate_settings, kernel_box, step_settings, vel
 from .certificate import CertificateSettings, certify, frozen_system
 from .interrupts import InterruptFlag
 from .records import ContactForces, StepStats
-from .step import run_steps
+from .step import run_steps, run_steps3
 from ..streams import window_seed
 
 CHECKPOINT_SECONDS = 30.0      # [s] wall time between checkpoints of a compression
 CHUNK_SECONDS = 0.5            # [s] CPU time aimed at per kernel call
-STATE_ARRAYS = ("x", "y", "th", "vx", "vy", "w")
 
 
 @dataclass
@@ -76,7 +75,7 @@ class Run:
 
 def snapshot(bodies: Bodies, run: Run) -> dict:
     """The checkpoint state of ``bodies`` and ``run`` (copies)."""
-    state = {k: getattr(bodies, k).copy() for k in STATE_ARRAYS}
+    state = {k: getattr(bodies, k).copy() for k in bodies.state_fields}
     state.update(keys=run.contacts.keys.copy(), rn=run.contacts.rn.copy(),
                  rt=run.contacts.rt.copy(), log=np.array(run.log, float).reshape(-1, 5),
                  steps=run.steps, phase=run.phase, v_first=run.v_ref,
@@ -92,10 +91,14 @@ def restore(path, setup: Setup, bodies: Bodies) -> Run | None:
     state = read_checkpoint(path, setup.identity)
     if state is None:
         return None
-    if state["x"].shape != bodies.x.shape:
-        raise InputError(path, "bodies", f"checkpoint has {state['x'].shape[0]} bodies, the "
-                         f"scene {bodies.x.shape[0]}; delete it to start afresh")
-    for k in STATE_ARRAYS:
+    first = getattr(bodies, bodies.state_fields[0])
+    saved = state.get(bodies.state_fields[0])
+    if saved is None or saved.shape != first.shape:
+        got = "another dimension" if saved is None else f"{saved.shape[0]} bodies"
+        raise InputError(path, "bodies", f"checkpoint has {got}, the scene "
+                         f"{first.shape[0]} bodies in {bodies.dim}-D; delete it to start "
+                         "afresh")
+    for k in bodies.state_fields:
         getattr(bodies, k)[:] = state[k]
     try:
         stats = StepStats(**{k: state["stats"][k] for k in StepStats._fields})
@@ -157,7 +160,8 @@ def run_window(window: int, bodies: Bodies, run: Run, seed: int, settings, chunk
     while done < window:
         k = min(chunk[0], window - done)
         t0 = time.process_time()
-        run.contacts, st = run_steps(bodies, box, step, sweep, run.contacts, k, wseed, done)
+        steps = run_steps if bodies.dim == 2 else run_steps3
+        run.contacts, st = steps(bodies, box, step, sweep, run.contacts, k, wseed, done)
         spent = time.process_time() - t0
         done += k
         total = total.merged(st)
@@ -265,13 +269,12 @@ def _windows(setup: Setup, bodies, run: Run, seed, settings, ends, bar, checkpoi
             save(snapshot(bodies, run))
             raise NumericalError(_not_jammed(setup, run, v_tol, checkpoint))
         before = snapshot(bodies, run)
-        start = (before["x"], before["y"], before["th"])
         st = run_window(window, bodies, run, seed, settings, chunk, interrupt,
                         lambda: save(before))
         run.steps += window
         run.stats = run.stats.merged(st)
         check_state(setup, bodies, run.steps)
-        v_mean = window_displacement(setup, bodies, start, run.contacts) / window_time
+        v_mean = window_displacement(setup, bodies, before, run.contacts) / window_time
         run.v_ref = v_mean if not v_mean <= run.v_ref else run.v_ref
         run.log.append((run.steps, v_mean, st.max_speed, st.sweeps_total / window,
                         st.max_rel_change))
@@ -302,31 +305,48 @@ def _not_jammed(setup: Setup, run: Run, v_tol, checkpoint) -> str:
             + (f"; the run resumes from {checkpoint}" if checkpoint else ""))
 
 
-def window_displacement(setup: Setup, bodies: Bodies, start, contacts: ContactForces) -> float:
-    """Largest displacement [R] over the last window of a disk that bears load or feels
-    gravity (centre displacement + r*|rotation|), or of the top plate.
+def window_displacement(setup: Setup, bodies, start: dict, contacts: ContactForces) -> float:
+    """Largest displacement [R] over the last window of a grain that bears load or feels
+    gravity (centre displacement + r*|rotation|), or of the top plate; ``start``: the
+    :func:`snapshot` at the window's start.
 
     Jitter from overlap correction averages out over a window; steady sliding does
-    not. Left out: free-flying disks (zero gravity); with periodic x and frictionless
-    walls, the uniform horizontal drift (a zero mode); and a disk whose one
+    not. Left out: free-flying grains (zero gravity); with periodic lateral axes and
+    frictionless walls, the uniform lateral drift (a zero mode); and a grain whose one
     force-bearing contact is a wall (a lone disk on the floor), which rolls or slides
     along the flat wall at constant speed without end, touching nothing of the
-    packing (rigid disks have no rolling resistance; the case: studies/field_notes.md).
+    packing (rigid disks have no rolling resistance; the case: studies/field_notes.md);
+    in 3-D also a sphere with exactly two force-bearing contacts (it swings about their
+    chord, below).
     """
     n = bodies.n
     nb = n + N_WALL_SLOTS
-    x0, y0, th0 = start
     keys, rn = contacts.keys, contacts.rn
     a, b = keys // nb, keys % nb
     on = rn > 0
     disk_ends = np.concatenate([a[on & (a < n)], b[on & (b < n)]])
-    loaded = bodies.fy_ext[:n] != 0
+    loaded = bodies.load[:n] != 0
     loaded[disk_ends] = True
-    bearing = np.bincount(disk_ends, minlength=n)     # force-bearing contacts per disk
+    bearing = np.bincount(disk_ends, minlength=n)     # force-bearing contacts per grain
     on_wall = np.zeros(n, bool)
     wall = on & ((a >= n) | (b >= n))
     on_wall[np.minimum(a, b)[wall]] = True            # (walls are the slots n..nb-1)
     loaded &= ~(on_wall & (bearing == 1))
+    if bodies.dim == 3:
+        # a sphere held by exactly two contacts swings about the chord through them (the
+        # axis of a rotation that moves neither contact point): a floppy mode of rigid
+        # frictional spheres that never stops in zero gravity and changes no force to
+        # first order (quick3d, mu = 0.5: 2-contact spheres drifting at 1e-5 R/T for 3e5
+        # steps while the rest was still); the static solve still checks their balance
+        loaded &= bearing != 2
+        return _sphere_displacements(setup, bodies, start, loaded, contacts)
+    return _disk_displacements(setup, bodies, start, loaded)
+
+
+def _disk_displacements(setup: Setup, bodies: Bodies, start: dict, loaded) -> float:
+    """The largest window displacement of a ``loaded`` disk or the plate (2-D)."""
+    n = bodies.n
+    x0, y0, th0 = start["x"], start["y"], start["th"]
     dx = bodies.x[:n] - x0[:n]
     (periodic,), (width,) = setup.boundary.periodic, setup.boundary.lateral
     if periodic:
@@ -341,19 +361,56 @@ def window_displacement(setup: Setup, bodies: Bodies, start, contacts: ContactFo
     return float(max(disp[loaded].max(), plate))
 
 
+def _sphere_displacements(setup: Setup, bodies, start: dict, loaded,
+                          contacts: ContactForces) -> float:
+    """The largest window displacement of a ``loaded`` sphere or the plate (3-D: periodic
+    x and y). A sphere's rotation counts by how far it moved its force-bearing contact
+    points (the largest |dtheta x arm| over them), not by r |dtheta|: a sphere held by two
+    contacts spins freely about the chord through them (a zero mode of rigid frictional
+    spheres, which never stops and moves nothing; seen in quick3d at mu = 0.5)."""
+    n = bodies.n
+    nb = n + N_WALL_SLOTS
+    d = bodies.pos[:n] - start["pos"][:n]
+    size = np.asarray(setup.boundary.lateral, float)
+    d[:, :2] -= size * np.round(d[:, :2] / size)
+    plate = abs(bodies.pos[n + SLOT_TOP, 2] - start["pos"][n + SLOT_TOP, 2])
+    if not loaded.any():
+        return float(plate)
+    if setup.physics.plate_mu == 0.0:         # the lateral drift, a zero mode
+        m = bodies.masses[loaded]
+        d[:, :2] -= (m[:, None] * d[loaded, :2]).sum(0) / m.sum()
+    turn = bodies.th[:n] - start["th"][:n]
+    on = contacts.rn > 0
+    a, b = contacts.keys[on] // nb, contacts.keys[on] % nb
+    inner = (a < n) & (b < n)
+    normal = np.tile([0.0, 0.0, 1.0], (a.size, 1))      # plate contacts
+    sep = bodies.pos[b[inner]] - bodies.pos[a[inner]]
+    sep[:, :2] -= size * np.round(sep[:, :2] / size)
+    normal[inner] = sep / np.linalg.norm(sep, axis=1)[:, None]
+    rolled = np.zeros(n)
+    for ends, sign in ((a, 1.0), (b, -1.0)):             # arms r n from a, -r n from b
+        s = ends < n
+        arm = sign * bodies.r[ends[s], None] * normal[s]
+        np.maximum.at(rolled, ends[s], np.linalg.norm(np.cross(turn[ends[s]], arm), axis=1))
+    disp = np.linalg.norm(d, axis=1) + rolled
+    return float(max(disp[loaded].max(), plate))
+
+
 def check_state(setup: Setup, bodies: Bodies, steps: int) -> None:
     """NumericalError if the state is non-finite or disks left the box through a
     plate (a time step far too large for the loads: the implicit scheme stays
     stable, but contacts are then missed between steps)."""
     n = bodies.n
-    if not (np.isfinite(bodies.x[:n]).all() and np.isfinite(bodies.y).all()):
+    z = bodies.vertical
+    if not (np.isfinite(getattr(bodies, bodies.state_fields[0])[:n]).all()
+            and np.isfinite(z).all()):
         raise NumericalError(f"non-finite positions after {steps} steps; reduce solver.dt "
                              f"(now {setup.solver.dt:g})")
-    y, r, boundary = bodies.y[:n], bodies.r, setup.boundary
-    below = boundary.bottom and (y + r < bodies.y[n + SLOT_BOTTOM]).any()
-    above = boundary.top is not None and (y - r > bodies.y[n + SLOT_TOP]).any()
+    y, r, boundary = z[:n], bodies.r, setup.boundary
+    below = boundary.bottom and (y + r < z[n + SLOT_BOTTOM]).any()
+    above = boundary.top is not None and (y - r > z[n + SLOT_TOP]).any()
     if below or above:
-        raise NumericalError(f"disks passed through the {'bottom' if below else 'top'} plate "
+        raise NumericalError(f"grains passed through the {'bottom' if below else 'top'} plate "
                              f"after {steps} steps: solver.dt = {setup.solver.dt:g} is too "
                              f"large for these loads; reduce it")
 
@@ -366,4 +423,4 @@ def load_carried(setup: Setup, bodies: Bodies, contacts: ContactForces) -> bool:
         return True
     nb = bodies.n + N_WALL_SLOTS
     on_plate = (contacts.keys % nb) == bodies.n + SLOT_TOP
-    return float(contacts.rn[on_plate].sum()) >= -0.5 * bodies.fy_ext[bodies.n + SLOT_TOP]
+    return float(contacts.rn[on_plate].sum()) >= -0.5 * bodies.load[bodies.n + SLOT_TOP]

@@ -4,7 +4,8 @@ Pure numba kernels behind one public function, :func:`detect_contacts`. Body lay
 and contact convention: :mod:`forcespace.engine.records`. Normals point from a to b:
 bottom->disk (0, 1), disk->top (0, 1), left->disk (1, 0), disk->right (1, 0); the
 wall positions live in the body arrays (``y[n]`` lower plate, ``y[n+1]`` upper plate;
-side walls at x = 0 and x = width).
+side walls at x = 0 and x = width). Spheres: :func:`detect_contacts3`, the same cell
+list in three dimensions (periodic x and y, plates normal to z).
 """
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import numpy as np
 
 from ..kernels import kernel
 from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_LEFT, SLOT_RIGHT, SLOT_TOP
-from .records import Box
+from .records import Box, Box3
 
 
 class Grid(NamedTuple):
@@ -188,4 +189,173 @@ def _fill(x, y, r, box, margin, grid, buf_i, buf_f):
             if g < margin:
                 count = _put(buf_i, buf_f, count, i, n + SLOT_RIGHT,
                                             1.0, 0.0, g, 0)
+    return count
+
+
+# ---- spheres (3-D): the same cell list with a third axis ------------------------------
+
+class Grid3(NamedTuple):
+    """The cell list of :func:`detect3_kernel`: nc (3,) cells per axis, cell sizes cs
+    (3,) [R] (x and y divide the periodic extents; z at least the search distance, counted
+    from zmin [R]); head (prod nc,) first sphere of a cell (-1: none), nxt (n,) next sphere
+    of the same cell, ci (n, 3) a sphere's cell."""
+
+    nc: np.ndarray
+    cs: np.ndarray
+    zmin: float
+    head: np.ndarray
+    nxt: np.ndarray
+    ci: np.ndarray
+
+
+def detect_contacts3(pos, r, box, margin: float):
+    """All pairs (sphere-sphere and sphere-plate) whose gap is below ``margin`` [R], in 3-D.
+
+    pos: body positions (n+4, 3) [R] (x, y wrapped into the periodic box; the wall slots
+    hold the plate heights in column z); r: sphere radii (n,) [R]; ``box``:
+    :class:`~forcespace.engine.records.Box3`. Returns ``ints`` (Nc, 4) int64 = (a, b,
+    image_x, image_y) and ``floats`` (Nc, 4) = (nx, ny, nz, gap [R]), sorted by the key
+    a*(n+4)+b; b's centre is at pos[b] + (image_x*lx, image_y*ly, 0) (minimum image).
+    """
+    r = np.ascontiguousarray(r, dtype=float)
+    n = r.shape[0]
+    pos = np.ascontiguousarray(pos, dtype=float)
+    if pos.shape != (n + N_WALL_SLOTS, 3):
+        raise ValueError(f"pos must have shape (n+{N_WALL_SLOTS}, 3) = ({n + N_WALL_SLOTS}, 3)")
+    box = Box3(float(box.lx), float(box.ly), bool(box.has_bottom), bool(box.has_top))
+    return detect3_kernel(pos, r, box, float(margin))
+
+
+@kernel
+def detect3_kernel(pos, r, box, margin):
+    """The kernel of :func:`detect_contacts3`: pos (n+4, 3) [R], r (n,) [R] (float64,
+    contiguous), box a Box3 record, margin [R]; the same results."""
+    n = r.shape[0]
+    rmax = 0.0
+    zmin = np.inf
+    zmax = -np.inf
+    for i in range(n):
+        rmax = max(rmax, r[i])
+        zmin = min(zmin, pos[i, 2])
+        zmax = max(zmax, pos[i, 2])
+    cell = 2.0 * rmax + margin
+    max_cells = 4 * n + 16     # as in 2-D: never more cells than the grains can use
+    nc = np.ones(3, np.int64)
+    cs = np.empty(3)
+    nc[0] = max(1, min(int(box.lx / cell), max_cells))
+    nc[1] = max(1, min(int(box.ly / cell), max(1, max_cells // nc[0])))
+    cs[0] = box.lx / nc[0]
+    cs[1] = box.ly / nc[1]
+    span = zmax - zmin
+    if np.isfinite(span):
+        nc[2] = max(1, min(int(span / cell) + 1, max(1, max_cells // (nc[0] * nc[1]))))
+        cs[2] = max(cell, span / nc[2] * (1.0 + 1e-12))
+    else:            # non-finite positions: one layer; the caller reports the blow-up
+        cs[2] = np.inf
+    head = -np.ones(nc[0] * nc[1] * nc[2], dtype=np.int64)
+    nxt = -np.ones(n, dtype=np.int64)
+    ci = np.empty((n, 3), dtype=np.int64)
+    for i in range(n):
+        for d in range(3):
+            rel = pos[i, d] - (zmin if d == 2 else 0.0)
+            ci[i, d] = min(max(int(rel / cs[d]), 0), nc[d] - 1)
+        c = (ci[i, 2] * nc[1] + ci[i, 1]) * nc[0] + ci[i, 0]
+        nxt[i] = head[c]
+        head[c] = i
+    capacity = 12 * n + 16
+    while True:
+        buf_i = np.empty((capacity, 4), dtype=np.int64)
+        buf_f = np.empty((capacity, 4))
+        count = _fill3(pos, r, box, margin, Grid3(nc, cs, zmin, head, nxt, ci), buf_i, buf_f)
+        if count >= 0:
+            break
+        capacity *= 2
+    nb = n + N_WALL_SLOTS
+    keys = np.empty(count, dtype=np.int64)
+    for k in range(count):
+        keys[k] = buf_i[k, 0] * nb + buf_i[k, 1]
+    order = np.argsort(keys)
+    return buf_i[:count][order], buf_f[:count][order]
+
+
+@kernel(inline="always")
+def _put3(buf_i, buf_f, count, a, b, image_x, image_y, d, gap):
+    """Store one 3-D contact (normal d (3,)) at row ``count``; the new count, or -1 when
+    full."""
+    if count < 0 or count >= buf_i.shape[0]:
+        return -1
+    buf_i[count, 0] = a
+    buf_i[count, 1] = b
+    buf_i[count, 2] = image_x
+    buf_i[count, 3] = image_y
+    buf_f[count, 0] = d[0]
+    buf_f[count, 1] = d[1]
+    buf_f[count, 2] = d[2]
+    buf_f[count, 3] = gap
+    return count + 1
+
+
+@kernel(inline="always")
+def _columns(c, nc, periodic, out):
+    """The distinct cells c-1, c, c+1 along an axis of ``nc`` cells into ``out`` (3,);
+    their number."""
+    k = 0
+    for d in range(-1, 2):
+        j = c + d
+        if periodic:
+            j = j % nc
+        elif j < 0 or j >= nc:
+            continue
+        dup = False
+        for q in range(k):
+            if out[q] == j:
+                dup = True
+        if not dup:
+            out[k] = j
+            k += 1
+    return k
+
+
+@kernel
+def _fill3(pos, r, box, margin, grid, buf_i, buf_f):
+    """Write all 3-D contacts into the buffers (rows as returned by
+    :func:`detect3_kernel`); the count, or -1 if they do not fit."""
+    n = r.shape[0]
+    nc, head, nxt, ci = grid.nc, grid.head, grid.nxt, grid.ci
+    count = 0
+    cols = np.empty((3, 3), dtype=np.int64)
+    ncol = np.empty(3, dtype=np.int64)
+    d = np.empty(3)
+    up = np.array([0.0, 0.0, 1.0])
+    for i in range(n):
+        for ax in range(3):
+            ncol[ax] = _columns(ci[i, ax], nc[ax], ax < 2, cols[ax])
+        for qz in range(ncol[2]):
+            for qy in range(ncol[1]):
+                for qx in range(ncol[0]):
+                    j = head[(cols[2, qz] * nc[1] + cols[1, qy]) * nc[0] + cols[0, qx]]
+                    while j >= 0:
+                        if j > i:
+                            d[0] = pos[j, 0] - pos[i, 0]
+                            d[1] = pos[j, 1] - pos[i, 1]
+                            d[2] = pos[j, 2] - pos[i, 2]
+                            image_x = -int(np.floor(d[0] / box.lx + 0.5))
+                            image_y = -int(np.floor(d[1] / box.ly + 0.5))
+                            d[0] += image_x * box.lx
+                            d[1] += image_y * box.ly
+                            dist = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+                            g = dist - r[i] - r[j]
+                            if g < margin:
+                                d /= dist
+                                count = _put3(buf_i, buf_f, count, i, j, image_x, image_y,
+                                              d, g)
+                        j = nxt[j]
+        if box.has_bottom:
+            g = pos[i, 2] - r[i] - pos[n + SLOT_BOTTOM, 2]
+            if g < margin:
+                count = _put3(buf_i, buf_f, count, n + SLOT_BOTTOM, i, 0, 0, up, g)
+        if box.has_top:
+            g = pos[n + SLOT_TOP, 2] - pos[i, 2] - r[i]
+            if g < margin:
+                count = _put3(buf_i, buf_f, count, i, n + SLOT_TOP, 0, 0, up, g)
     return count

@@ -5,7 +5,8 @@ perturb-and-relax sampler. Positions are fixed, gaps count as closed, dt = 1;
 masses act only as preconditioner weights. Velocities are recomputed from the
 forces before every chunk of sweeps (``v = dt M^-1 (F_ext + contact forces)``,
 so round-off never accumulates) and the caller's ``violation(rn, rt)`` decides
-when the network is admissible.
+when the network is admissible. Spheres: :class:`FrozenContacts3` (the same two methods
+on the 3-D records), which :func:`relax` runs alike.
 """
 from __future__ import annotations
 
@@ -14,8 +15,9 @@ import numpy as np
 
 from ..errors import NumericalError
 from ..model.problem import StaticsProblem
-from .nlgs import add_contact_velocities, solve
-from .records import Contacts, Motion, SweepSettings, SweepStats
+from ..model.sphere_problem import PLATE
+from .nlgs import add_contact_velocities, add_contact_velocities3, solve, solve3
+from .records import Contacts, Contacts3, Motion, Motion3, SweepSettings, SweepStats
 from ..streams import chunk_seed
 
 
@@ -53,6 +55,40 @@ class FrozenContacts:
         dt = 1 (:func:`forcespace.engine.nlgs.solve`)."""
         return solve(self.contacts, motion, rn, rt, SweepSettings(1.0, 0.0, int(max_sweeps)),
                      seed)
+
+
+@dataclass
+class FrozenContacts3:
+    """A frozen 3-D contact network as the solver sees it (dt = 1, gaps closed).
+
+    contacts: :class:`~forcespace.engine.records.Contacts3` (gaps 0); inv_m (nb, 3),
+    inv_i (nb,): inverse masses (zero for fixed bodies); v_ext: two arrays (nb, 3), the
+    velocities dt M^-1 F_ext and dt I^-1 T_ext of the external loads over dt = 1.
+    """
+
+    contacts: Contacts3
+    inv_m: np.ndarray
+    inv_i: np.ndarray
+    v_ext: tuple
+
+    @property
+    def mu(self) -> np.ndarray:
+        """Coulomb coefficients (Nc,)."""
+        return self.contacts.mu
+
+    def velocities(self, rn, rt) -> Motion3:
+        """Velocities of the loads and the contact forces rn (Nc,), rt (Nc, 3) applied from
+        rest over dt = 1, with the inverse masses."""
+        m = Motion3(np.array(self.v_ext[0], dtype=float), np.array(self.v_ext[1], dtype=float),
+                    self.inv_m, self.inv_i)
+        add_contact_velocities3(self.contacts, rn, rt, m, 1.0)
+        return m
+
+    def sweep(self, rn, rt, motion: Motion3, max_sweeps: int, seed: int) -> SweepStats:
+        """Up to ``max_sweeps`` Gauss-Seidel sweeps on rn, rt (in place), dt = 1
+        (:func:`forcespace.engine.nlgs.solve3`)."""
+        return solve3(self.contacts, motion, rn, rt, SweepSettings(1.0, 0.0, int(max_sweeps)),
+                      seed)
 
 
 @dataclass(frozen=True)
@@ -161,3 +197,37 @@ def frozen_contacts(p: StaticsProblem) -> FrozenContacts:
                         ra=radius[np.where(a >= 0, a, n)], rb=radius[b],
                         mu=p.mu.astype(float), keys=np.zeros(nc, np.int64))
     return FrozenContacts(contacts, inv_m, inv_my, inv_i, v_ext)
+
+
+def frozen_contacts3(p) -> FrozenContacts3:
+    """The solver view of a :class:`~forcespace.model.sphere_problem.SphereStaticsProblem`
+    (the 3-D :func:`frozen_contacts`): interior spheres 0..n-1 (solid spheres: mass and
+    I = 2/5 m r^2), one fixed ground n for every support, and for the plate problem the
+    plate n+1, moving along z only under the plate row's load. Contacts, normals and
+    loads are read off the problem (``ends``, ``frame``, b); masses only precondition.
+    The tangential forces rt (Nc, 3) of the solver are ``f1 t1 + f2 t2`` of the problem's
+    columns (:meth:`SphereStaticsProblem.to_packing_forces` maps them back)."""
+    n = p.n_interior
+    plate = p.kind == "full_plate"
+    nb = n + (2 if plate else 1)
+    ends = np.where(p.ends >= 0, p.ends, n)
+    ends[p.ends == PLATE] = n + 1
+    radius = np.append(p.radius, 0.0)
+    arm = np.where(p.ends >= 0, radius[np.maximum(p.ends, 0)], 0.0)
+    inv_m = np.zeros((nb, 3))
+    inv_m[:n] = (1.0 / p.mass)[:, None]
+    inv_i = np.zeros(nb)
+    inv_i[:n] = 1.0 / (0.4 * p.mass * p.radius ** 2)
+    v_ext = (np.zeros((nb, 3)), np.zeros((nb, 3)))
+    v_ext[0][:n] = p.load_force * inv_m[:n]
+    v_ext[1][:n] = p.load_torque * inv_i[:n, None]
+    if plate:   # the plate's mass only preconditions too
+        m_plate = float(p.mass.mean())
+        inv_m[n + 1, 2] = 1.0 / m_plate
+        v_ext[0][n + 1, 2] = -p.b[6 * n] / m_plate
+    nc = p.n_contacts
+    contacts = Contacts3(a=ends[:, 0].astype(np.int64), b=ends[:, 1].astype(np.int64),
+                         normal=np.ascontiguousarray(p.frame[:, 0]), gap=np.zeros(nc),
+                         ra=arm[:, 0], rb=arm[:, 1], mu=p.mu.astype(float),
+                         keys=np.zeros(nc, np.int64))
+    return FrozenContacts3(contacts, inv_m, inv_i, v_ext)

@@ -13,13 +13,16 @@ without this contact's own force and g+ = max(gap, 0),
 ``R_t = -(m_t/dt) U_t`` clipped to ``|R_t| <= mu R_n``. Contacts with
 ``mu == 0`` never touch the tangential code path; the kernel counts
 tangential updates so that this is checkable.
+
+Spheres (3-D): :func:`solve3` and :func:`add_contact_velocities3`, the same update with
+a tangential 2-vector projected onto the Coulomb disc (the comment block below).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..kernels import kernel
-from .records import Contacts, Motion, SweepSettings, SweepStats
+from .records import Contacts, Contacts3, Motion, Motion3, SweepSettings, SweepStats
 from ..streams import order_state, shuffle
 
 
@@ -85,14 +88,19 @@ def solve(contacts: Contacts, motion: Motion, rn, rt, settings: SweepSettings,
     m = _check_motion(motion)
     c = _check_contacts(contacts, m.vx.shape[0])
     _check_forces(rn, rt, c.a.shape[0])
-    s = settings
+    s = checked_sweep_settings(settings)
+    return solve_kernel(c, m, rn, rt, s, int(seed))
+
+
+def checked_sweep_settings(s: SweepSettings) -> SweepSettings:
+    """``s`` with the field types the kernels take; ValueError if dt <= 0, tol < 0,
+    max_sweeps < 0, relaxation outside (0, 2) or block < 0."""
     if not (s.dt > 0 and 0 <= s.tol and s.max_sweeps >= 0 and 0 < s.relaxation < 2
             and s.block >= 0):
         raise ValueError(f"invalid solver settings {s}")
-    s = SweepSettings(float(s.dt), float(s.tol), int(s.max_sweeps), float(s.relaxation),
-                      int(s.block), float(s.overlap_correction), float(s.overlap_slop),
-                      int(s.relax_until))
-    return solve_kernel(c, m, rn, rt, s, int(seed))
+    return SweepSettings(float(s.dt), float(s.tol), int(s.max_sweeps), float(s.relaxation),
+                         int(s.block), float(s.overlap_correction), float(s.overlap_slop),
+                         int(s.relax_until))
 
 
 @kernel
@@ -371,4 +379,335 @@ def solve_kernel(c, m, rn, rt, s, seed):
         m.vx[i] = body[i, _VX]
         m.vy[i] = body[i, _VY]
         m.w[i] = body[i, _W]
+    return SweepStats(sweeps, rel, n_norm, n_tang)
+
+
+# ---- spheres (3-D): the same update with a tangential 2-vector on the Coulomb disc ----
+#
+# Contact k (Contacts3): force rn*n + rt on b (rt (3,) perpendicular to n), -(...) on a,
+# lever arms ra*n from a and -rb*n from b, so the torque on both is -r n x rt and the
+# relative velocity at the contact is V = v_b - v_a - (rb w_b + ra w_a) x n. For spheres
+# (isotropic mass and inertia) the normal and tangential parts decouple, as for disks:
+# 1/m_n = n.(M_a^-1 + M_b^-1).n, 1/m_t = 1/m_a + 1/m_b + ra^2/I_a + rb^2/I_b in every
+# tangential direction (with per-direction inverse masses, their mean over the tangent
+# plane: exact for spheres and for plates, which only move along their normal).
+# Single-contact update: R_n as in 2-D; R_t = -(m_t/dt) U_t (a 3-vector in the tangent
+# plane), projected radially onto the disc |R_t| <= mu R_n.
+
+# contact record (Nc, 16): normal, m_n/dt, 1/m_n, g+, g+/dt, mu, m_t/dt, 1/m_t, ra, rb,
+# dt*ra, dt*rb
+_NX3, _NY3, _NZ3, _CN3, _IMN3, _GP3, _GPDT3, _MU3 = 0, 1, 2, 3, 4, 5, 6, 7
+_CT3, _IMT3, _RA3, _RB3, _DTRA3, _DTRB3 = 8, 9, 10, 11, 12, 13
+# body record (nb, 12): v (3), w (3), inverse masses (3), inverse moment of inertia
+_V3, _W3, _IM3, _II3 = 0, 3, 6, 9
+_BODY3 = 12
+
+
+def _check_motion3(m: Motion3) -> Motion3:
+    nb = np.shape(m.v)[0]
+    for name, v in zip(Motion3._fields, m):
+        want = (nb,) if name == "inv_i" else (nb, 3)
+        if not (isinstance(v, np.ndarray) and v.dtype == np.float64 and v.shape == want
+                and v.flags.c_contiguous):
+            raise ValueError(f"motion.{name} must be a contiguous float64 array of shape "
+                             f"{want} (velocities are updated in place)")
+    return m
+
+
+def _check_contacts3(c: Contacts3, nb: int) -> Contacts3:
+    """The 3-D contact record with contiguous arrays of the kernel dtypes; ValueError if a
+    shape differs or a body index is out of range."""
+    nc = np.shape(c.a)[0]
+    out = Contacts3(*(np.ascontiguousarray(v, dtype=np.int64 if name in ("a", "b", "keys")
+                                           else float)
+                      for name, v in zip(Contacts3._fields, c)))
+    for name, v in zip(Contacts3._fields, out):
+        want = (nc, 3) if name == "normal" else (nc,)
+        if v.shape != want and not (name == "keys" and v.shape == (0,)):
+            raise ValueError(f"contacts.{name} must have shape {want}, got {v.shape}")
+    if nc and (min(out.a.min(), out.b.min()) < 0 or max(out.a.max(), out.b.max()) >= nb):
+        raise ValueError(f"contact body indices must lie in [0, {nb})")
+    return out
+
+
+def _check_forces3(rn, rt, nc: int):
+    for name, v, want in (("rn", rn, (nc,)), ("rt", rt, (nc, 3))):
+        if not (isinstance(v, np.ndarray) and v.dtype == np.float64 and v.shape == want
+                and v.flags.c_contiguous):
+            raise ValueError(f"{name} must be a contiguous float64 array of shape {want} "
+                             "(updated in place)")
+
+
+def add_contact_velocities3(contacts, rn, rt, motion, dt: float) -> None:
+    """Add dt M^-1 (contact forces rn (Nc,), rt (Nc, 3) [sigma]) to the velocities of a
+    :class:`~forcespace.engine.records.Motion3` in place; dt [T]."""
+    m = _check_motion3(motion)
+    c = _check_contacts3(contacts, m.v.shape[0])
+    rn = np.ascontiguousarray(rn, dtype=float)
+    rt = np.ascontiguousarray(rt, dtype=float).reshape(-1, 3)
+    _check_forces3(rn, rt, c.a.shape[0])
+    velocities3_kernel(c, rn, rt, m, float(dt))
+
+
+def solve3(contacts, motion, rn, rt, settings: SweepSettings, seed: int) -> SweepStats:
+    """Gauss-Seidel sweeps on a 3-D contact list until the forces converge (see
+    :func:`solve3_kernel`): ``contacts`` a Contacts3, ``motion`` a Motion3 (velocities
+    updated in place), rn (Nc,), rt (Nc, 3) [sigma] the starting forces (updated in
+    place), ``settings`` and ``seed`` as :func:`solve`."""
+    m = _check_motion3(motion)
+    c = _check_contacts3(contacts, m.v.shape[0])
+    _check_forces3(rn, rt, c.a.shape[0])
+    s = checked_sweep_settings(settings)
+    return solve3_kernel(c, m, rn, rt, s, int(seed))
+
+
+@kernel
+def masses3_kernel(c, m):
+    """Normal and tangential effective masses (Nc,) each [rho R^3] of a Contacts3 and a
+    Motion3 (the comment above); 0 for a contact between two immovable bodies."""
+    nc = c.a.shape[0]
+    mn = np.zeros(nc)
+    mt = np.zeros(nc)
+    for k in range(nc):
+        i = c.a[k]
+        j = c.b[k]
+        inn = 0.0
+        itt = 0.0
+        for d in range(3):
+            s = m.inv_m[i, d] + m.inv_m[j, d]
+            nd = c.normal[k, d]
+            inn += nd * nd * s
+            itt += 0.5 * (1.0 - nd * nd) * s
+        itt += c.ra[k] * c.ra[k] * m.inv_i[i] + c.rb[k] * c.rb[k] * m.inv_i[j]
+        mn[k] = 1.0 / inn if inn > 0.0 else 0.0
+        mt[k] = 1.0 / itt if itt > 0.0 else 0.0
+    return mn, mt
+
+
+@kernel
+def velocities3_kernel(c, rn, rt, m, dt):
+    """Add dt * M^-1 * (contact forces rn (Nc,), rt (Nc, 3)) to the velocities, in place."""
+    for k in range(c.a.shape[0]):
+        i = c.a[k]
+        j = c.b[k]
+        for d in range(3):
+            f = rn[k] * c.normal[k, d] + rt[k, d]
+            m.v[j, d] += dt * f * m.inv_m[j, d]
+            m.v[i, d] -= dt * f * m.inv_m[i, d]
+        if rt[k, 0] != 0.0 or rt[k, 1] != 0.0 or rt[k, 2] != 0.0:
+            nx, ny, nz = c.normal[k, 0], c.normal[k, 1], c.normal[k, 2]
+            tx = ny * rt[k, 2] - nz * rt[k, 1]         # n x rt
+            ty = nz * rt[k, 0] - nx * rt[k, 2]
+            tz = nx * rt[k, 1] - ny * rt[k, 0]
+            gj = -dt * c.rb[k] * m.inv_i[j]
+            gi = -dt * c.ra[k] * m.inv_i[i]
+            m.w[j, 0] += gj * tx
+            m.w[j, 1] += gj * ty
+            m.w[j, 2] += gj * tz
+            m.w[i, 0] += gi * tx
+            m.w[i, 1] += gi * ty
+            m.w[i, 2] += gi * tz
+
+
+@kernel
+def records3_kernel(c, m, s):
+    """The 3-D solver's working copies: body pairs (Nc, 2), contact records (Nc, 16) and
+    body records (nb, 12) (layout above), every per-contact factor precomputed."""
+    mn, mt = masses3_kernel(c, m)
+    nc = mn.shape[0]
+    dt = s.dt
+    pairs = np.empty((nc, 2), np.int64)
+    rec = np.zeros((nc, 16))
+    for k in range(nc):
+        pairs[k, 0] = c.a[k]
+        pairs[k, 1] = c.b[k]
+        rec[k, _NX3] = c.normal[k, 0]
+        rec[k, _NY3] = c.normal[k, 1]
+        rec[k, _NZ3] = c.normal[k, 2]
+        rec[k, _CN3] = mn[k] / dt
+        rec[k, _IMN3] = 1.0 / mn[k] if mn[k] > 0.0 else 0.0
+        gp = c.gap[k]
+        if gp < 0.0:
+            gp = s.overlap_correction * (gp + s.overlap_slop) if gp < -s.overlap_slop else 0.0
+        rec[k, _GP3] = gp
+        rec[k, _GPDT3] = gp / dt
+        rec[k, _MU3] = c.mu[k]
+        rec[k, _CT3] = mt[k] / dt
+        rec[k, _IMT3] = 1.0 / mt[k] if mt[k] > 0.0 else 0.0
+        rec[k, _RA3] = c.ra[k]
+        rec[k, _RB3] = c.rb[k]
+        rec[k, _DTRA3] = dt * c.ra[k]
+        rec[k, _DTRB3] = dt * c.rb[k]
+    nb = m.v.shape[0]
+    body = np.zeros((nb, _BODY3))
+    for i in range(nb):
+        for d in range(3):
+            body[i, _V3 + d] = m.v[i, d]
+            body[i, _W3 + d] = m.w[i, d]
+            body[i, _IM3 + d] = m.inv_m[i, d]
+        body[i, _II3] = m.inv_i[i]
+    return pairs, rec, body
+
+
+@kernel(inline="always")
+def _push3(body, i, j, px, py, pz):
+    """Apply the impulse p to body j and -p to body i (velocities only)."""
+    body[j + _V3] += px * body[j + _IM3]
+    body[j + _V3 + 1] += py * body[j + _IM3 + 1]
+    body[j + _V3 + 2] += pz * body[j + _IM3 + 2]
+    body[i + _V3] -= px * body[i + _IM3]
+    body[i + _V3 + 1] -= py * body[i + _IM3 + 1]
+    body[i + _V3 + 2] -= pz * body[i + _IM3 + 2]
+
+
+@kernel
+def tangential3_update(body, rec, rt, q, k, i, j, dv, new_n, dt, relaxation):
+    """The friction half of the 3-D single-contact update of contact k (record at q, bodies
+    at offsets i, j; dv (3,) the relative centre velocity before the normal update):
+    R_t = -(m_t/dt) U_t, over-relaxed if asked, projected radially onto the disc
+    |R_t| <= mu new_n; rt (3 Nc,) and the body records in place. Returns |dR_t|."""
+    ex, ey, ez = rec[q + _NX3], rec[q + _NY3], rec[q + _NZ3]
+    ra, rb = rec[q + _RA3], rec[q + _RB3]
+    sx = rb * body[j + _W3] + ra * body[i + _W3]
+    sy = rb * body[j + _W3 + 1] + ra * body[i + _W3 + 1]
+    sz = rb * body[j + _W3 + 2] + ra * body[i + _W3 + 2]
+    vx = dv[0] - (sy * ez - sz * ey)            # V = dv - s x n
+    vy = dv[1] - (sz * ex - sx * ez)
+    vz = dv[2] - (sx * ey - sy * ex)
+    vn = vx * ex + vy * ey + vz * ez
+    t = 3 * k
+    o0, o1, o2 = rt[t], rt[t + 1], rt[t + 2]
+    own = dt * rec[q + _IMT3]
+    ct = rec[q + _CT3]
+    n0 = -ct * (vx - vn * ex - own * o0)
+    n1 = -ct * (vy - vn * ey - own * o1)
+    n2 = -ct * (vz - vn * ez - own * o2)
+    if relaxation != 1.0:
+        n0 = o0 + relaxation * (n0 - o0)
+        n1 = o1 + relaxation * (n1 - o1)
+        n2 = o2 + relaxation * (n2 - o2)
+    size = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    lim = rec[q + _MU3] * new_n
+    if size > lim:
+        f = lim / size
+        n0 *= f
+        n1 *= f
+        n2 *= f
+    d0, d1, d2 = n0 - o0, n1 - o1, n2 - o2
+    if d0 == 0.0 and d1 == 0.0 and d2 == 0.0:
+        return 0.0
+    rt[t], rt[t + 1], rt[t + 2] = n0, n1, n2
+    _push3(body, i, j, dt * d0, dt * d1, dt * d2)
+    tx = ey * d2 - ez * d1                      # n x dR_t
+    ty = ez * d0 - ex * d2
+    tz = ex * d1 - ey * d0
+    gj = -rec[q + _DTRB3] * body[j + _II3]
+    gi = -rec[q + _DTRA3] * body[i + _II3]
+    body[j + _W3] += gj * tx
+    body[j + _W3 + 1] += gj * ty
+    body[j + _W3 + 2] += gj * tz
+    body[i + _W3] += gi * tx
+    body[i + _W3 + 1] += gi * ty
+    body[i + _W3 + 2] += gi * tz
+    return np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+
+
+@kernel
+def sweep3_kernel(pairs, rec, body, rn, rt, order, runs, block, dt, relaxation):
+    """One Gauss-Seidel sweep over a 3-D contact list (the single-contact update of the
+    comment above), on the flattened records of :func:`records3_kernel`; rn (Nc,), rt
+    (3 Nc,) and the body records in place; ``order``/``runs``/``block`` as
+    :func:`sweep_kernel`. Returns (sum |dR|, normal updates, tangential updates)."""
+    dsum = 0.0
+    n_norm = 0
+    n_tang = 0
+    nc = rn.shape[0]
+    dv = np.empty(3)
+    count = runs.shape[0] if block > 0 else nc
+    for pos in range(count):
+        if block > 0:
+            lo = runs[pos] * block
+            hi = min(nc, lo + block)
+        else:
+            lo = order[pos]
+            hi = lo + 1
+        for k in range(lo, hi):
+            q = 16 * k
+            cn = rec[q + _CN3]
+            if cn == 0.0:
+                continue
+            i = _BODY3 * pairs[2 * k]
+            j = _BODY3 * pairs[2 * k + 1]
+            for d in range(3):
+                dv[d] = body[j + _V3 + d] - body[i + _V3 + d]
+            ex, ey, ez = rec[q + _NX3], rec[q + _NY3], rec[q + _NZ3]
+            rnk = rn[k]
+            un = dv[0] * ex + dv[1] * ey + dv[2] * ez - dt * rnk * rec[q + _IMN3]
+            r_gs = -cn * (rec[q + _GPDT3] + un)   # unprojected single-contact solution
+            if relaxation != 1.0:
+                new_n = max(rnk + relaxation * (r_gs - rnk), 0.0)
+            elif un * dt + rec[q + _GP3] > 0.0:
+                new_n = 0.0
+            else:
+                new_n = r_gs
+            dn = new_n - rnk
+            if dn != 0.0:
+                rn[k] = new_n
+                _push3(body, i, j, dt * dn * ex, dt * dn * ey, dt * dn * ez)
+                dsum += abs(dn)
+            n_norm += 1
+            if rec[q + _MU3] <= 0.0:
+                continue
+            dsum += tangential3_update(body, rec, rt, q, k, i, j, dv, new_n, dt, relaxation)
+            n_tang += 1
+    return dsum, n_norm, n_tang
+
+
+@kernel
+def solve3_kernel(c, m, rn, rt, s, seed):
+    """Iterate Gauss-Seidel sweeps on a 3-D contact list until the forces converge.
+
+    c: Contacts3 (Nc,); m: Motion3, velocities updated in place; rn (Nc,), rt (Nc, 3)
+    [sigma] updated in place; s: SweepSettings; seed: sweep-order seed. The sweep orders,
+    over-relaxation (with its fall-back to omega = 1 at ``relax_until``) and overlap
+    correction are those of :func:`solve_kernel`; convergence: sum |dR| over a sweep <=
+    tol * sum |R| after it, |R| = |rn| + |rt| (Euclidean). Returns SweepStats.
+    """
+    pairs, rec, body = records3_kernel(c, m, s)
+    flat_pairs, flat_rec, flat_body = pairs.ravel(), rec.ravel(), body.ravel()
+    flat_rt = rt.reshape(-1)
+    nc = rn.shape[0]
+    block = s.block
+    relaxation = s.relaxation
+    fallback = s.max_sweeps // 2 if s.relax_until < 0 else s.relax_until
+    order = np.arange(nc) if block == 0 else np.zeros(0, np.int64)
+    runs = np.arange((nc + block - 1) // block) if block > 0 else np.zeros(0, np.int64)
+    state = order_state(seed)
+    rel = 0.0
+    n_norm = 0
+    n_tang = 0
+    sweeps = 0
+    for sweep in range(s.max_sweeps):
+        sweeps = sweep + 1
+        if sweep == fallback:
+            relaxation = 1.0   # over-relaxation that has not converged: plain Gauss-Seidel
+        if block > 0:
+            state = shuffle(runs, runs.shape[0], state)
+        else:
+            state = shuffle(order, nc, state)
+        dsum, nn, nt = sweep3_kernel(flat_pairs, flat_rec, flat_body, rn, flat_rt, order,
+                                     runs, block, s.dt, relaxation)
+        n_norm += nn
+        n_tang += nt
+        rsum = 0.0
+        for k in range(nc):
+            rsum += abs(rn[k]) + np.sqrt(rt[k, 0] ** 2 + rt[k, 1] ** 2 + rt[k, 2] ** 2)
+        rel = dsum / rsum if rsum > 0.0 else (0.0 if dsum == 0.0 else np.inf)
+        if rel <= s.tol:
+            break
+    nb = m.v.shape[0]
+    for i in range(nb):
+        for d in range(3):
+            m.v[i, d] = body[i, _V3 + d]
+            m.w[i, d] = body[i, _W3 + d]
     return SweepStats(sweeps, rel, n_norm, n_tang)

@@ -35,10 +35,11 @@ from .. import config
 from ..errors import NumericalError
 from ..io.checkpoint import remove_checkpoint
 from ..model.packing import Packing
+from ..model.sphere_packing import SpherePacking
 from ..model.scene import Scene
 from ..model.setup import Setup
-from .bodies import (Bodies, check_setup, loose_start,  # noqa: F401 (API)
-                     make_bodies, random_radii, row_order)
+from .bodies import (Bodies, SphereBodies, check_setup, loose_start,  # noqa: F401 (API)
+                     loose_start3, make_bodies, make_sphere_bodies, random_radii, row_order)
 from .compress import compress, start_run, unsettle
 from .interrupts import deferred_sigint
 from .static import (certificate_stats, certified_solve, restart_from_exact_point,
@@ -49,19 +50,28 @@ __all__ = ["Bodies", "Setup", "build_packing", "compress", "jam", "loose_start",
            "make_bodies", "random_radii", "row_order", "static_solve"]
 
 
-def start_bodies(setup: Setup) -> Bodies:
+def start_bodies(setup: Setup) -> Bodies | SphereBodies:
     """The loose start of a setup: radii, positions and densities from the placement
-    stream of its seed, as kernel bodies."""
+    stream of its seed, as kernel bodies (disks, or spheres when ``setup.dim`` is 3)."""
     rng = placement_rng(setup.seed)
+    if setup.dim == 3:
+        pos, r, height = loose_start3(setup, rng)
+        return make_sphere_bodies(setup, pos, r, height, _densities(setup, rng, r.size))
     x, y, r, height = loose_start(setup, rng)
-    density = None
+    return make_bodies(setup, x, y, r, height, _densities(setup, rng, r.size))
+
+
+def _densities(setup: Setup, rng, n: int):
+    """Per-grain densities log-uniform in [density, density*ratio] (drawn after the
+    placement), or None when all grains are alike."""
     grains = setup.grains
-    if grains.density_ratio != 1.0:      # log-uniform in [density, density*ratio]
-        density = grains.density * grains.density_ratio ** rng.uniform(0, 1, r.size)
-    return make_bodies(setup, x, y, r, height, density)
+    if grains.density_ratio == 1.0:
+        return None
+    return grains.density * grains.density_ratio ** rng.uniform(0, 1, n)
 
 
-def build_packing(scene: Scene | Setup, show_progress=True, checkpoint=None) -> Packing:
+def build_packing(scene: Scene | Setup, show_progress=True,
+                  checkpoint=None) -> Packing | SpherePacking:
     """Run the whole protocol for ``scene`` and return the static packing.
 
     The scene is turned into records (:class:`~forcespace.model.setup.Setup`) here, once;
@@ -155,8 +165,10 @@ def check_overlap(setup: Setup, packing: Packing) -> None:
             "jamming.max_overlap")
 
 
-def jam(scene, progress: bool = False, checkpoint=None, **overrides) -> Packing:
-    """Jam a packing by the scene's protocol and return it.
+def jam(scene, progress: bool = False, checkpoint=None,
+        **overrides) -> Packing | SpherePacking:
+    """Jam a packing by the scene's protocol and return it (a :class:`Packing` of disks,
+    or a :class:`SpherePacking` for a scene with ``box.dimension = 3``).
 
     ``scene``: a :class:`~forcespace.model.scene.Scene`, the path of a scene file or the
     name of a bundled scene; ``overrides``: scene keys with dots replaced by double

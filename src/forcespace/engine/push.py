@@ -47,6 +47,9 @@ def push(packing: Packing, disk: int, force: float, seed: int = 0,
     if setup is None:
         raise InputError("packing", "scene_text", "is empty or not a valid scene: the "
                          "packing does not record the scene that made it")
+    if setup.dim != 2:
+        raise InputError("packing", "box.dimension", "must be 2: the point-force push "
+                         "runs on disks only", got=setup.dim)
     if setup.boundary.top is not None:
         raise InputError("packing", "plates.top", 'must be "none" (a free surface) for a '
                          "point force")

@@ -15,6 +15,13 @@ Contact convention: contact k joins bodies ``a[k]`` and ``b[k]`` with unit norma
 (nx, ny) from a to b; the force ``rn*n + rt*t`` (t = (-ny, nx)) acts on b, its negative
 on a; lever arms ``ra*n`` from a's centre and ``-rb*n`` from b's centre (ra, rb the
 radii, 0 for walls), so a tangential force rt exerts the torque ``-r*rt`` on both.
+
+Spheres (3-D) have records of their own where the state differs (``*3`` below): vectors
+are rows of (.., 3) arrays (x, y lateral, z vertical), masses in rho R^3; the same body
+layout (spheres 0..n-1, then the four wall slots, of which bottom and top are used: a
+3-D box is periodic in x and y), the same contact convention with the normal n (a -> b)
+a 3-vector and the tangential force a 3-vector ``rt`` perpendicular to n, so that the
+force on b is ``rn*n + rt`` and the torque on both bodies ``-r n x rt``.
 """
 from __future__ import annotations
 
@@ -176,3 +183,55 @@ class StepStats(NamedTuple):
                          max(self.max_speed, other.max_speed),
                          max(self.max_top_speed, other.max_top_speed),
                          self.steps_at_sweep_cap + other.steps_at_sweep_cap)
+
+
+class BodyArrays3(NamedTuple):
+    """State of every body in 3-D: arrays (nb, 3) float64 pos [R] (wall slots: the plate
+    surfaces in ``pos[n, 2]`` and ``pos[n+1, 2]``), th [rad] (accumulated rotation
+    vector, the integral of w: only its changes are used, to measure rolling), v [R/T],
+    w [rad/T], inv_m [1/(rho R^3)] (inverse mass per direction), f_ext [sigma] (gravity,
+    the top-plate load); inv_i (nb,) [1/(rho R^5)] inverse moment of inertia (a sphere:
+    5 / (2 m r^2)); r (n,) radii [R]. Positions and velocities updated in place."""
+
+    pos: np.ndarray
+    th: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    inv_m: np.ndarray
+    inv_i: np.ndarray
+    f_ext: np.ndarray
+    r: np.ndarray
+
+
+class Motion3(NamedTuple):
+    """What the 3-D contact solver reads and writes of the bodies: v (nb, 3) [R/T], w (nb,
+    3) [rad/T] (updated in place), inv_m (nb, 3) [1/(rho R^3)], inv_i (nb,) [1/(rho R^5)]."""
+
+    v: np.ndarray
+    w: np.ndarray
+    inv_m: np.ndarray
+    inv_i: np.ndarray
+
+
+class Box3(NamedTuple):
+    """A 3-D container: periodic extents lx, ly [R] along x and y (minimum image); a fixed
+    lower plate (has_bottom) and a load-controlled upper plate (has_top) normal to z."""
+
+    lx: float
+    ly: float
+    has_bottom: bool
+    has_top: bool
+
+
+class Contacts3(NamedTuple):
+    """A 3-D contact list: a, b (Nc,) int64; normal (Nc, 3) unit a -> b; gap, ra, rb, mu,
+    keys (Nc,) as :class:`Contacts` (keys a*nb + b sorted ascending)."""
+
+    a: np.ndarray
+    b: np.ndarray
+    normal: np.ndarray
+    gap: np.ndarray
+    ra: np.ndarray
+    rb: np.ndarray
+    mu: np.ndarray
+    keys: np.ndarray

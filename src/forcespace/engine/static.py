@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -17,13 +18,14 @@ from ..model.setup import Setup
 from ..model.walls import (N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, kernel_body_index,
                            packing_body_code)
 from ..progress import progress
-from .bodies import Bodies, certificate_settings, kernel_box
+from ..model.sphere_packing import SpherePacking
+from .bodies import Bodies, SphereBodies, certificate_settings, kernel_box
 from .certificate import Certificate, frozen_system, in_cones, least_change_network
-from .contacts import detect_contacts
-from .frozen import FrozenContacts, relax
+from .contacts import detect_contacts, detect_contacts3
+from .frozen import FrozenContacts, FrozenContacts3, relax
 from .interrupts import InterruptFlag
-from .records import ContactForces, Contacts
-from .step import contact_list, warm_start
+from .records import ContactForces, Contacts, Contacts3
+from .step import contact_list, contact_list3, warm_start, warm_start3
 
 
 class ResidualProgress:
@@ -70,29 +72,9 @@ def static_solve(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
     in the solve (the recorded gaps are the real ones).
     """
     interrupt = interrupt or InterruptFlag()
-    n = bodies.n
     jamming = setup.jamming
-    ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r, kernel_box(setup.boundary),
-                                   jamming.contact_gap_tol)
-    c = contact_list(ints, floats, bodies.r, setup.physics.mu, setup.physics.plate_mu)
-    touched = np.zeros(n + N_WALL_SLOTS, dtype=bool)
-    touched[c.a] = touched[c.b] = True
-    loose = np.flatnonzero((bodies.fy_ext[:n] != 0) & ~touched[:n])
-    if loose.size:
-        raise NumericalError(f"disk {loose[0]} feels gravity but touches nothing: the "
-                             "configuration is not static (raise jamming.window or lower "
-                             "jamming.velocity_tol)")
-    if bodies.contacts is not None:  # start from the forces the dynamics ended with
-        rn, rt = warm_start(c.keys, bodies.contacts)
-        rt[c.mu == 0.0] = 0.0
-    else:
-        rn = np.zeros(c.a.shape[0])
-        rt = np.zeros(c.a.shape[0])
-    nb = n + N_WALL_SLOTS
-    system = FrozenContacts(c._replace(gap=np.zeros(c.a.shape[0])), bodies.inv_mx,
-                            bodies.inv_my, bodies.inv_i,
-                            (np.zeros(nb), bodies.fy_ext * bodies.inv_my, np.zeros(nb)))
-    packing_of = packing_view(setup, bodies, c, ints[:, 2].copy())
+    frozen = frozen_disks if bodies.dim == 2 else frozen_spheres
+    system, rn, rt, packing_of = frozen(setup, bodies)
     t0 = time.perf_counter()
     bar = ResidualProgress(jamming.static_tolerance, show_progress)
 
@@ -112,6 +94,94 @@ def static_solve(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
     return packing_of(rn, rt), stats
 
 
+def frozen_disks(setup: Setup, bodies: Bodies):
+    """The frozen network of the disks' configuration: (FrozenContacts, rn, rt warm
+    started from the dynamics' last forces, the function (rn, rt) -> Packing); pairs with
+    gap at most ``jamming.contact_gap_tol`` are closed contacts (gaps set to 0)."""
+    n = bodies.n
+    ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r, kernel_box(setup.boundary),
+                                   setup.jamming.contact_gap_tol)
+    c = contact_list(ints, floats, bodies.r, setup.physics.mu, setup.physics.plate_mu)
+    touched = np.zeros(n + N_WALL_SLOTS, dtype=bool)
+    touched[c.a] = touched[c.b] = True
+    loose = np.flatnonzero((bodies.fy_ext[:n] != 0) & ~touched[:n])
+    if loose.size:
+        raise NumericalError(f"disk {loose[0]} feels gravity but touches nothing: the "
+                             "configuration is not static (raise jamming.window or lower "
+                             "jamming.velocity_tol)")
+    if bodies.contacts is not None:  # start from the forces the dynamics ended with
+        rn, rt = warm_start(c.keys, bodies.contacts)
+        rt[c.mu == 0.0] = 0.0
+    else:
+        rn = np.zeros(c.a.shape[0])
+        rt = np.zeros(c.a.shape[0])
+    nb = n + N_WALL_SLOTS
+    system = FrozenContacts(c._replace(gap=np.zeros(c.a.shape[0])), bodies.inv_mx,
+                            bodies.inv_my, bodies.inv_i,
+                            (np.zeros(nb), bodies.fy_ext * bodies.inv_my, np.zeros(nb)))
+    packing_of = packing_view(setup, bodies, c, ints[:, 2].copy())
+    return system, rn, rt, packing_of
+
+
+def frozen_spheres(setup: Setup, bodies: SphereBodies):
+    """The frozen network of the spheres' configuration (3-D :func:`frozen_disks`):
+    (FrozenContacts3, rn (Nc,), rt (Nc, 3) warm started, (rn, rt) -> SpherePacking)."""
+    n = bodies.n
+    ints, floats = detect_contacts3(bodies.pos, bodies.r, kernel_box(setup.boundary),
+                                    setup.jamming.contact_gap_tol)
+    c = contact_list3(ints, floats, bodies.r, setup.physics.mu, setup.physics.plate_mu)
+    touched = np.zeros(n + N_WALL_SLOTS, dtype=bool)
+    touched[c.a] = touched[c.b] = True
+    loose = np.flatnonzero((bodies.load[:n] != 0) & ~touched[:n])
+    if loose.size:
+        raise NumericalError(f"sphere {loose[0]} feels gravity but touches nothing: the "
+                             "configuration is not static (raise jamming.window or lower "
+                             "jamming.velocity_tol)")
+    if bodies.contacts is not None:  # start from the forces the dynamics ended with
+        rn, rt = warm_start3(c.keys, c.normal, bodies.contacts)
+        rt[c.mu == 0.0] = 0.0
+    else:
+        rn, rt = np.zeros(c.a.shape[0]), np.zeros((c.a.shape[0], 3))
+    v_ext = (bodies.f_ext * bodies.inv_m, np.zeros_like(bodies.w))
+    system = FrozenContacts3(c._replace(gap=np.zeros(c.a.shape[0])), bodies.inv_m,
+                             bodies.inv_i, v_ext)
+    return system, rn, rt, sphere_packing_view(setup, bodies, c, ints[:, 2:4].copy())
+
+
+def sphere_packing_view(setup: Setup, bodies: SphereBodies, c: Contacts3, image):
+    """A function (rn, rt) -> SpherePacking for the frozen 3-D configuration and contacts
+    ``c`` (their real gaps; ``image`` (Nc, 2) the periodic images), carrying ``setup``."""
+    n = bodies.n
+    a, b, normal, gap = c.a, c.b, c.normal, c.gap
+    pos, r = bodies.pos[:n].copy(), bodies.r
+    # contact point: on a's surface pushed half the gap toward b; plates: on the sphere
+    point = np.empty((a.shape[0], 3))
+    sa = a < n
+    point[sa] = pos[a[sa]] + (r[a[sa]] + 0.5 * gap[sa])[:, None] * normal[sa]
+    point[~sa] = pos[b[~sa]] - r[b[~sa], None] * normal[~sa]
+    lateral = np.asarray(setup.boundary.lateral, float)
+    point[:, :2] -= lateral * np.floor(point[:, :2] / lateral)
+    boundary, physics, grains = setup.boundary, setup.physics, setup.grains
+    density = grains.density
+    if grains.density_ratio != 1.0:     # per-sphere densities, read off the masses
+        density = 1.0 / (bodies.inv_m[:n, 0] * 4.0 / 3.0 * np.pi * r**3)
+    top = boundary.top
+    z_top = bodies.pos[n + SLOT_TOP, 2] if top is not None else np.nan
+    z_bot = bodies.pos[n + SLOT_BOTTOM, 2] if boundary.bottom else np.nan
+    sigma = setup.force_unit
+    pa, pb = packing_body_code(a, n), packing_body_code(b, n)
+
+    def make(rn, rt) -> SpherePacking:
+        return SpherePacking(
+            pos=pos, r=r, lateral=tuple(float(v) for v in lateral), z_bottom=float(z_bot),
+            z_top=float(z_top), top_force=top.force if top is not None else 0.0,
+            gravity=physics.gravity, density=density, mu=physics.mu,
+            plate_mu=physics.plate_mu, a=pa, b=pb, normal=normal, point=point, image=image,
+            gap=gap, fn=rn * sigma, ft=np.asarray(rt).reshape(-1, 3) * sigma,
+            seed=setup.seed, scene_text=setup.text, scene_name=setup.name, setup=setup)
+    return make
+
+
 def certified_solve(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
                     interrupt: InterruptFlag | None = None):
     """The static network of the frozen configuration by its certificate
@@ -125,7 +195,8 @@ def certified_solve(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
     :func:`static_solve` from there (an exact static network is a fixed point of its
     sweeps, so the polish only removes the solver's round-off). Returns
     ((packing, statistics) or None when the configuration is not static, the
-    :class:`~forcespace.engine.certificate.Certificate`).
+    :class:`~forcespace.engine.certificate.Certificate`). Disks only (the scene refuses
+    ``jamming.certificate_speed`` > 0 with ``box.dimension = 3``).
     """
     settings = certificate_settings(setup)
     c, _image, system, rn0, rt0 = frozen_system(
@@ -150,8 +221,8 @@ def certificate_stats(cert: Certificate) -> dict:
             "certificate_seconds": cert.seconds, "certificate_residual": cert.residual}
 
 
-def restart_from_exact_point(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
-                             interrupt: InterruptFlag | None = None):
+def restart_from_exact_point(setup: Setup, bodies: Bodies | SphereBodies, seed: int,
+                             show_progress=True, interrupt: InterruptFlag | None = None):
     """The static solve again, from an exact static network, for a configuration whose
     NLGS from the dynamics' forces stalled above ``jamming.static_tolerance``.
 
@@ -161,10 +232,37 @@ def restart_from_exact_point(setup: Setup, bodies: Bodies, seed: int, show_progr
     configuration is not static (the case that asked for it: studies/field_notes.md).
     (Before issue 42 the exact point was HiGHS' feasibility LP on the plate
     problem: 2.1-4.6 CPU s at 2000 disks where the certificate takes 0.2-0.7 s.)
-    Returns (packing, statistics) as :func:`static_solve`, or None.
+    Spheres: the nearest point of S by the second-order-cone program
+    (:func:`exact_sphere_network`). Returns (packing, statistics) as
+    :func:`static_solve`, or None.
     """
+    if bodies.dim == 3:
+        _, rn, rt, packing_of = frozen_spheres(setup, bodies)
+        packing = packing_of(rn, rt)
+        fn, ft = exact_sphere_network(setup, packing)
+        if fn is None:
+            return None
+        bodies.contacts = settled_forces(replace(packing, fn=fn, ft=ft), setup)
+        return static_solve(setup, bodies, seed, show_progress, interrupt)
     done, _cert = certified_solve(setup, bodies, seed, show_progress, interrupt)
     return done
+
+
+def exact_sphere_network(setup: Setup, packing: SpherePacking):
+    """An exact static network of a frozen sphere configuration: the point of S (the
+    plate problem under a load-controlled plate, else the full one) nearest to the
+    packing's forces, by the second-order-cone program of
+    :func:`forcespace.space.conic.nearest_admissible` (Clarabel); (fn (Nc,), ft (Nc, 3))
+    [F0], or (None, None) when S is empty."""
+    from ..model.sphere_problem import sphere_full_problem, sphere_plate_problem
+    from ..space.conic import nearest_admissible
+
+    build = sphere_plate_problem if setup.boundary.top is not None else sphere_full_problem
+    problem = build(packing, gap_tol=setup.jamming.contact_gap_tol)
+    res = nearest_admissible(problem, target=problem.x_jammed)
+    if not res.feasible:
+        return None, None
+    return problem.to_packing_forces(res.x)
 
 
 def packing_view(setup: Setup, bodies: Bodies, c: Contacts, image):

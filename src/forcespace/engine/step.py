@@ -10,6 +10,10 @@ One step: detect contacts (gap < margin), warm-start their forces from the
 previous step (matched by body pair), free velocities ``v + dt*F_ext/m``,
 NLGS, then ``x += dt*v`` (implicit Euler). External forces are only those
 the scene asks for: ``fy_ext`` holds gravity and the top-plate load.
+
+Spheres (3-D): :func:`run_steps3`, the same step on the 3-D records (a periodic box in x
+and y, plates normal to z) with the kernels of :mod:`~forcespace.engine.contacts` and
+:mod:`~forcespace.engine.nlgs` for spheres.
 """
 from __future__ import annotations
 
@@ -17,10 +21,11 @@ import numpy as np
 
 from ..kernels import kernel
 from ..model.walls import N_WALL_SLOTS, contact_mu
-from .contacts import detect_kernel
-from .nlgs import solve_kernel, velocities_kernel
-from .records import (BodyArrays, Box, ContactForces, Contacts, Motion, StepSettings,
-                      StepStats, SweepSettings)
+from .contacts import detect3_kernel, detect_kernel
+from .nlgs import (checked_sweep_settings, solve3_kernel, solve_kernel,
+                   velocities3_kernel, velocities_kernel)
+from .records import (BodyArrays, BodyArrays3, Box, Box3, ContactForces, Contacts,
+                      Contacts3, Motion, Motion3, StepSettings, StepStats, SweepSettings)
 from ..streams import step_seed
 
 
@@ -220,16 +225,219 @@ def run_steps(bodies, box: Box, step: StepSettings, sweep: SweepSettings,
     rec = body_arrays(bodies)
     box = Box(float(box.width), bool(box.periodic), bool(box.has_bottom), bool(box.has_top),
               bool(box.has_sides))
+    step, sweep, prev = _kernel_arguments(step, sweep, contacts, nsteps, seed, step0, 1)
+    return steps_kernel(rec, box, step, sweep, prev, int(nsteps), int(seed), int(step0))
+
+
+def _kernel_arguments(step: StepSettings, sweep: SweepSettings, contacts: ContactForces,
+                      nsteps: int, seed: int, step0: int, tangential: int):
+    """The settings and previous contacts as the step kernels take them (typed fields,
+    contiguous arrays; rt (Nc,) in 2-D, (Nc, 3) in 3-D: ``tangential`` components);
+    ValueError if nsteps, seed or step0 is negative."""
+    if nsteps < 0 or seed < 0 or step0 < 0:
+        raise ValueError("nsteps, seed and step0 must be >= 0")
     step = StepSettings(float(step.margin), float(step.mu_disk), float(step.mu_wall),
                         bool(step.rotation), float(step.tol_moving), float(step.moving_speed),
                         int(step.sweeps_moving))
-    sweep = SweepSettings(float(sweep.dt), float(sweep.tol), int(sweep.max_sweeps),
-                          float(sweep.relaxation), int(sweep.block),
-                          float(sweep.overlap_correction), float(sweep.overlap_slop),
-                          int(sweep.relax_until))
+    rt = np.ascontiguousarray(contacts.rt, dtype=float)
     prev = ContactForces(np.ascontiguousarray(contacts.keys, dtype=np.int64),
                          np.ascontiguousarray(contacts.rn, dtype=float),
-                         np.ascontiguousarray(contacts.rt, dtype=float))
-    if nsteps < 0 or seed < 0 or step0 < 0:
-        raise ValueError("nsteps, seed and step0 must be >= 0")
-    return steps_kernel(rec, box, step, sweep, prev, int(nsteps), int(seed), int(step0))
+                         rt if tangential == 1 else rt.reshape(-1, tangential))
+    return step, checked_sweep_settings(sweep), prev
+
+
+# ---- spheres (3-D): the same step with vectors --------------------------------------
+
+@kernel
+def warm_start3_kernel(keys_new, keys_old, rn_old, rt_old, normal):
+    """Forces rn (Nc,), rt (Nc, 3) of the previous step's contacts that persist (matched
+    by key as :func:`warm_start_kernel`); a persisting tangential force is projected onto
+    the new tangent plane (normal (Nc, 3)), new contacts start at 0."""
+    m = keys_new.shape[0]
+    rn = np.zeros(m)
+    rt = np.zeros((m, 3))
+    p = 0
+    for k in range(m):
+        while p < keys_old.shape[0] and keys_old[p] < keys_new[k]:
+            p += 1
+        if p < keys_old.shape[0] and keys_old[p] == keys_new[k]:
+            rn[k] = rn_old[p]
+            along = (rt_old[p, 0] * normal[k, 0] + rt_old[p, 1] * normal[k, 1]
+                     + rt_old[p, 2] * normal[k, 2])
+            for d in range(3):
+                rt[k, d] = rt_old[p, d] - along * normal[k, d]
+    return rn, rt
+
+
+def warm_start3(keys, normal, previous: ContactForces):
+    """3-D :func:`warm_start`: forces rn (Nc,), rt (Nc, 3) [sigma] for the contacts
+    ``keys`` (sorted) with unit normals ``normal`` (Nc, 3), from ``previous`` (rt (k, 3))."""
+    keys = np.ascontiguousarray(keys, dtype=np.int64)
+    old = np.ascontiguousarray(previous.keys, dtype=np.int64)
+    if np.any(np.diff(keys) <= 0) or np.any(np.diff(old) <= 0):
+        raise ValueError("contact keys must be sorted ascending and unique")
+    return warm_start3_kernel(keys, old, np.ascontiguousarray(previous.rn, dtype=float),
+                              np.ascontiguousarray(previous.rt, dtype=float).reshape(-1, 3),
+                              np.ascontiguousarray(normal, dtype=float).reshape(-1, 3))
+
+
+@kernel
+def contacts3_kernel(ints, floats, r, mu_disk, mu_wall):
+    """3-D detection output (``ints`` (Nc, 4), ``floats`` (Nc, 4) of
+    :func:`forcespace.engine.contacts.detect_contacts3`) -> a Contacts3 record; r (n,)
+    radii [R]; the Coulomb coefficient by the wall rule of :mod:`forcespace.model.walls`."""
+    n = r.shape[0]
+    m = ints.shape[0]
+    a = ints[:, 0].copy()
+    b = ints[:, 1].copy()
+    normal = floats[:, :3].copy()
+    gap = floats[:, 3].copy()
+    ra = np.zeros(m)
+    rb = np.zeros(m)
+    mu = np.empty(m)
+    keys = np.empty(m, dtype=np.int64)
+    nb = n + N_WALL_SLOTS
+    for k in range(m):
+        wall = a[k] >= n or b[k] >= n
+        if a[k] < n:
+            ra[k] = r[a[k]]
+        if b[k] < n:
+            rb[k] = r[b[k]]
+        mu[k] = contact_mu(wall, mu_disk, mu_wall)
+        keys[k] = a[k] * nb + b[k]
+    return Contacts3(a, b, normal, gap, ra, rb, mu, keys)
+
+
+def contact_list3(ints, floats, r, mu_disk: float, mu_wall: float) -> Contacts3:
+    """The Contacts3 record of a 3-D detection result (see :func:`contacts3_kernel`)."""
+    ints = np.ascontiguousarray(ints, dtype=np.int64)
+    floats = np.ascontiguousarray(floats, dtype=float)
+    if ints.ndim != 2 or ints.shape[1] != 4 or floats.shape != ints.shape:
+        raise ValueError("ints and floats must have the same shape (Nc, 4)")
+    return contacts3_kernel(ints, floats, np.ascontiguousarray(r, dtype=float),
+                            float(mu_disk), float(mu_wall))
+
+
+@kernel
+def loaded3_kernel(bodies, c, rn):
+    """Mask (nb,) of the spheres that feel an external force or carry a contact force (the
+    loaded grains of the speed log and the rest criterion)."""
+    n = bodies.r.shape[0]
+    loaded = np.zeros(bodies.inv_i.shape[0], dtype=np.bool_)
+    for i in range(n):
+        loaded[i] = bodies.f_ext[i, 0] != 0.0 or bodies.f_ext[i, 1] != 0.0 \
+            or bodies.f_ext[i, 2] != 0.0
+    for k in range(c.a.shape[0]):
+        if rn[k] > 0.0:
+            loaded[c.a[k]] = True
+            loaded[c.b[k]] = True
+    return loaded
+
+
+@kernel
+def move3_kernel(bodies, box, step, loaded, dt):
+    """Implicit Euler positions x += dt v (x, y wrapped into the box, rotation vectors
+    integrated when ``step.rotation``, the top plate along z); returns the largest speed
+    |v - drift| + r |w| of a loaded sphere (drift: the loaded spheres' mean lateral
+    velocity when the plates are frictionless, a zero mode of the periodic box)."""
+    pos, v, w, r = bodies.pos, bodies.v, bodies.w, bodies.r
+    n = r.shape[0]
+    drift = np.zeros(3)
+    if step.mu_wall == 0.0:
+        ml = 0.0
+        for i in range(n):
+            if loaded[i] and bodies.inv_m[i, 0] > 0.0:
+                mi = 1.0 / bodies.inv_m[i, 0]
+                drift[0] += mi * v[i, 0]
+                drift[1] += mi * v[i, 1]
+                ml += mi
+        if ml > 0.0:
+            drift /= ml
+    vmax = 0.0
+    for i in range(n):
+        for d in range(3):
+            pos[i, d] += dt * v[i, d]
+        if step.rotation:
+            for d in range(3):
+                bodies.th[i, d] += dt * w[i, d]
+        if loaded[i]:
+            speed = np.sqrt((v[i, 0] - drift[0]) ** 2 + (v[i, 1] - drift[1]) ** 2
+                            + v[i, 2] ** 2) \
+                + r[i] * np.sqrt(w[i, 0] ** 2 + w[i, 1] ** 2 + w[i, 2] ** 2)
+            vmax = max(vmax, speed)
+        pos[i, 0] -= box.lx * np.floor(pos[i, 0] / box.lx)
+        pos[i, 1] -= box.ly * np.floor(pos[i, 1] / box.ly)
+    pos[n + 1, 2] += dt * v[n + 1, 2]
+    return vmax
+
+
+@kernel
+def steps3_kernel(bodies, box, step, sweep, prev, nsteps, seed, step0):
+    """``nsteps`` 3-D time steps in place; the kernel of :func:`run_steps3` (arguments and
+    results as :func:`steps_kernel`, with BodyArrays3, Box3 and rt (Nc, 3))."""
+    motion = Motion3(bodies.v, bodies.w, bodies.inv_m, bodies.inv_i)
+    v, f_ext, inv_m = bodies.v, bodies.f_ext, bodies.inv_m
+    n = bodies.r.shape[0]
+    dt, max_sweeps = sweep.dt, sweep.max_sweeps
+    keys, rn, rt = prev.keys, prev.rn, prev.rt
+    totals = np.zeros(4, np.int64)     # sweeps, normal updates, tangential updates, capped
+    sweeps_max = 0
+    max_rel = 0.0
+    max_speed = 0.0
+    max_top = 0.0
+    for s in range(nsteps):
+        ints, floats = detect3_kernel(bodies.pos, bodies.r, box, step.margin)
+        c = contacts3_kernel(ints, floats, bodies.r, step.mu_disk, step.mu_wall)
+        rn, rt = warm_start3_kernel(c.keys, keys, rn, rt, c.normal)
+        keys = c.keys
+        moving = step.tol_moving > 0.0 and abs(v[n + 1, 2]) > step.moving_speed
+        for i in range(n + N_WALL_SLOTS):
+            for d in range(3):
+                if f_ext[i, d] != 0.0:  # only the forces the scene asks for
+                    v[i, d] += dt * f_ext[i, d] * inv_m[i, d]
+        velocities3_kernel(c, rn, rt, motion, dt)
+        settings = sweep
+        if moving:     # the plate moved faster than moving_speed in the last step
+            cap = step.sweeps_moving if step.sweeps_moving > 0 else max_sweeps
+            settings = SweepSettings(dt, step.tol_moving, cap, sweep.relaxation,
+                                     sweep.block, sweep.overlap_correction,
+                                     sweep.overlap_slop,
+                                     sweep.relax_until if step.sweeps_moving <= 0 else -1)
+        st = solve3_kernel(c, motion, rn, rt, settings, step_seed(seed, step0 + s))
+        totals[0] += st.sweeps
+        totals[1] += st.normal_updates
+        totals[2] += st.tangential_updates
+        if st.sweeps >= settings.max_sweeps and st.relative_change > settings.tol:
+            totals[3] += 1
+        sweeps_max = max(sweeps_max, st.sweeps)
+        max_rel = max(max_rel, st.relative_change)
+        loaded = loaded3_kernel(bodies, c, rn)
+        max_speed = max(max_speed, move3_kernel(bodies, box, step, loaded, dt))
+        max_top = max(max_top, abs(v[n + 1, 2]))
+    return ContactForces(keys, rn, rt), StepStats(totals[0], sweeps_max, max_rel, totals[1],
+                                                  totals[2], max_speed, max_top, totals[3])
+
+
+def body_arrays3(bodies) -> BodyArrays3:
+    """The BodyArrays3 record of any object with its fields (views, not copies);
+    ValueError if a shape or dtype would make the kernel copy."""
+    rec = BodyArrays3(*(getattr(bodies, f) for f in BodyArrays3._fields))
+    n = np.shape(rec.r)[0]
+    for name, v in zip(BodyArrays3._fields, rec):
+        want = {"r": (n,), "inv_i": (n + N_WALL_SLOTS,)}.get(name, (n + N_WALL_SLOTS, 3))
+        if not (isinstance(v, np.ndarray) and v.dtype == np.float64 and v.shape == want
+                and v.flags.c_contiguous):
+            raise ValueError(f"bodies.{name} must be a contiguous float64 array of shape {want}")
+    return rec
+
+
+def run_steps3(bodies, box: Box3, step: StepSettings, sweep: SweepSettings,
+               contacts: ContactForces, nsteps: int, seed: int,
+               step0: int = 0) -> tuple[ContactForces, StepStats]:
+    """3-D :func:`run_steps`: ``bodies`` with the fields of
+    :class:`~forcespace.engine.records.BodyArrays3` (updated in place), ``box`` a Box3,
+    ``contacts`` the previous step's (rt (Nc, 3); an empty record of either shape)."""
+    rec = body_arrays3(bodies)
+    box = Box3(float(box.lx), float(box.ly), bool(box.has_bottom), bool(box.has_top))
+    step, sweep, prev = _kernel_arguments(step, sweep, contacts, nsteps, seed, step0, 3)
+    return steps3_kernel(rec, box, step, sweep, prev, int(nsteps), int(seed), int(step0))

@@ -8,7 +8,9 @@ temporary file renamed into place), so a kill never leaves half a checkpoint. La
                     without the step budget), steps, phase, v_first, and the run's
                     statistics by name (sweeps_total, ...)
     /bodies/{x, y, th, vx, vy, w}   (nb,)  body state (disks, then the 4 wall slots)
-    /contacts/{keys, rn, rt}        (Nc,)  the last step's contacts (warm start)
+    /bodies/{pos, th, v, w}         (nb, 3) the same for spheres (3-D)
+    /contacts/{keys, rn, rt}        (Nc,)  the last step's contacts (warm start; rt (Nc, 3)
+                                           for spheres)
     /log                            (k, 5) one row per window (see COLUMNS)
 
 Anything that is not such a file (garbage, another HDF5 file, a missing field) is
@@ -30,6 +32,11 @@ BODY_FIELDS = {"x": ("R", "centre x (wall slots unused)"),
                "vx": ("R/T", "velocity x, T = sqrt(rho R^3 / sigma)"),
                "vy": ("R/T", "velocity y"),
                "w": ("rad/T", "angular velocity")}
+# spheres (3-D): vectors as rows (nb, 3)
+BODY_FIELDS_3D = {"pos": ("R", "centre x, y, z (wall slots: plate surfaces in z)"),
+                  "th": ("rad", "accumulated rotation vector"),
+                  "v": ("R/T", "velocity, T = sqrt(rho R^3 / sigma)"),
+                  "w": ("rad/T", "angular velocity")}
 CONTACT_FIELDS = {"keys": ("1", "contact key a*(n+4) + b, sorted"),
                   "rn": ("sigma", "normal force, sigma the engine's force unit"),
                   "rt": ("sigma", "tangential force")}
@@ -61,7 +68,7 @@ def write_checkpoint(path, identity: str, state: dict) -> None:
         for k, v in state["stats"].items():
             f.attrs[f"stats.{k}"] = v
         g = f.create_group("bodies")
-        for k, (units, desc) in BODY_FIELDS.items():
+        for k, (units, desc) in _body_fields(state).items():
             write_dataset(g, k, np.asarray(state[k], float), units, desc)
         g = f.create_group("contacts")
         for k, (units, desc) in CONTACT_FIELDS.items():
@@ -85,7 +92,7 @@ def read_checkpoint(path, identity: str) -> dict | None:
             raise InputError(path, "scene", "checkpoint belongs to another scene; delete it "
                              "to start afresh")
         try:
-            out = {k: f["bodies"][k][()] for k in BODY_FIELDS}
+            out = {k: f["bodies"][k][()] for k in _body_fields(f["bodies"])}
             out.update({k: f["contacts"][k][()] for k in CONTACT_FIELDS})
             out["log"] = f["log"][()].reshape(-1, 5)
             out["steps"] = int(f.attrs["steps"])
@@ -100,10 +107,18 @@ def read_checkpoint(path, identity: str) -> dict | None:
             raise InputError(path, "(checkpoint)", f"is incomplete or corrupt ({exc}); delete "
                              "it to start afresh") from None
     nc = out["keys"].shape
-    if out["rn"].shape != nc or out["rt"].shape != nc or out["x"].ndim != 1:
+    flat = "x" in out
+    if out["rn"].shape != nc or out["rt"].shape[:1] != nc \
+            or out["rt"].ndim != (1 if flat else 2) or (flat and out["x"].ndim != 1):
         raise InputError(path, "(checkpoint)", "arrays of inconsistent shapes; delete it to "
                          "start afresh")
     return out
+
+
+def _body_fields(state) -> dict:
+    """The body fields of a state or a file's /bodies group: 2-D (x, y, ...) or 3-D (pos,
+    ...)."""
+    return BODY_FIELDS if "x" in state else BODY_FIELDS_3D
 
 
 def remove_checkpoint(path) -> None:

@@ -73,7 +73,8 @@ def atomic_path(path):
 # Version of the file layouts (packing, ensemble, soft network). Bump it when a reader
 # of this version could misread a file written by the next one; files without the
 # attribute are version 1 (before it existed) and are read as such.
-FORMAT_VERSION = 2
+# 3: packing files may hold spheres (root attribute dimension = 3; 2-D files unchanged).
+FORMAT_VERSION = 3
 
 
 @functools.lru_cache(maxsize=1)

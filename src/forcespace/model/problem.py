@@ -275,11 +275,12 @@ def _centre_y(p: Packing) -> float:
     return 0.5 * (p.y.min() + p.y.max())
 
 
-def _classify_contacts(p: Packing, interior, rat, unknown_walls, gap_tol, support_mask):
+def classify_contacts(p, interior, rat, unknown_walls, gap_tol, support_mask):
     """Masks (Nc,) of the unknown contacts (between two interior disks, or between an
     interior disk and a support: a wall of ``unknown_walls`` or a disk of
     ``support_mask``) and of the load contacts (every other closed contact of an
-    interior disk). Contacts of rattlers and open contacts (gap > gap_tol) are neither."""
+    interior disk). Contacts of rattlers and open contacts (gap > gap_tol) are neither.
+    ``p``: any packing with a, b, gap (disks or spheres: the rule has no dimension)."""
     a = np.asarray(p.a, np.int64)
     bb = np.asarray(p.b, np.int64)
     closed = np.asarray(p.gap, float) <= gap_tol
@@ -350,6 +351,11 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     walls as unknowns). Recorded as ``meta["mu_override"]``, ``meta["wall_mu"]``.
     """
     source = source or getattr(p, "source", "")
+    if getattr(p, "dim", 2) != 2:
+        raise InputError(source or "packing", "dimension", "must be 2: this question about S "
+                         "is answered for disks; a sphere packing's statics problem is "
+                         "forcespace.model.sphere_problem (its analysis of S: issue 44)",
+                         got=p.dim)
     if mu is not None and not (np.isfinite(mu) and 0 <= mu <= 1e6):
         raise InputError(source or "problem", "mu", "must be a number in [0, 1e6] (as the "
                          "scene's physics.mu)", got=mu)
@@ -371,7 +377,7 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     local[disks] = np.arange(disks.size)
     n = disks.size
 
-    unknown, load = _classify_contacts(p, interior, rat, unknown_walls, gap_tol, support_mask)
+    unknown, load = classify_contacts(p, interior, rat, unknown_walls, gap_tol, support_mask)
     contacts = np.flatnonzero(unknown)
     m = contacts.size
     mu_disks = p.mu if mu_override is None else mu_override

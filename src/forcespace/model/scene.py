@@ -112,13 +112,15 @@ class Relation:
 class Key:
     """One scene key: its type, default, allowed values (``check``: a :class:`Range`,
     :class:`OneOf` or :class:`Relation`, all readable as data; None: any value of the
-    type), meaning and unit."""
+    type), meaning and unit; ``dims``: the dimensions whose scene text writes it (a key
+    of 3-D scenes only is left out of a 2-D scene's text, where it has its default)."""
 
     type: type
     default: object
     check: object
     doc: str
     unit: str = ""
+    dims: tuple = (2, 3)
 
     @property
     def meaning(self) -> str:
@@ -179,11 +181,40 @@ def _width(v, d):
     rmax = d["disks.radius_max"]
     if v > 1e6 * d["disks.radius_min"]:
         return f"must be <= 1e6 * disks.radius_min = {1e6 * d['disks.radius_min']:g}"
-    if not d["box.periodic_x"]:
+    if not d["box.periodic_x"] and d["box.dimension"] == 2:
         return None if v >= 2.0 * rmax else f"must be >= 2 * disks.radius_max = {2 * rmax:g}"
     need = 4.0 * rmax + 2.0 * d["solver.contact_margin"]
     return None if v >= need else (f"must be >= 4 * disks.radius_max + 2 * solver.contact_margin "
                                    f"= {need:g} with periodic x (minimum-image convention)")
+
+
+def _periodic_x(v, d):
+    if d["box.dimension"] == 3 and not v:
+        return ("must be true with box.dimension = 3 (a 3-D box is periodic in x and y; "
+                "side walls exist in 2-D only)")
+    return None
+
+
+def _certificate_speed(v, d):
+    if not v >= 0:
+        return "must be >= 0 (0: never)"
+    if v > 0 and d["box.dimension"] == 3:
+        return ("must be 0 with box.dimension = 3 (the static certificate is written for "
+                "disks; a sphere jam ends at rest, by jamming.velocity_tol)")
+    return None
+
+
+def _depth(v, d):
+    """box.depth: 0 (the width) or a periodic extent, as box.width with periodic x."""
+    if v == 0:
+        return None
+    need = 4.0 * d["disks.radius_max"] + 2.0 * d["solver.contact_margin"]
+    if not need <= v <= 1e6 * d["disks.radius_min"]:
+        return (f"must be 0 (the width) or in [4 * disks.radius_max + 2 * "
+                f"solver.contact_margin, 1e6 * disks.radius_min] = [{need:g}, "
+                f"{1e6 * d['disks.radius_min']:g}] (periodic along y, minimum-image "
+                "convention)")
+    return None
 
 
 def _median(v, d):
@@ -232,7 +263,8 @@ SCHEMA: dict[str, Key] = {
         "disks.radius_max]", _median, ("disks.radius_min", "disks.radius_max")),
         "lognormal: median radius before truncation; unused otherwise", "R"),
     "disks.density": Key(float, 1.0, _in_range(0.0, 1e12),
-                         "2-D density; disk mass = density*pi*r^2", "rho"),
+                         "density; a disk's mass is density*pi*r^2 (box.dimension = 2), "
+                         "a sphere's density*4/3*pi*r^3 (3)", "rho"),
     "disks.density_ratio": Key(float, 1.0, _closed(1.0, 1e9),
                                "densities log-uniform in [density, density*ratio] "
                                "(1: all disks alike)"),
@@ -241,14 +273,25 @@ SCHEMA: dict[str, Key] = {
         "solver.contact_margin (periodic x), and <= 1e6 * disks.radius_min", _width,
         ("disks.radius_min", "disks.radius_max", "box.periodic_x", "solver.contact_margin")),
         "box width along x", "R"),
-    "box.periodic_x": Key(bool, True, None, "periodic along x (else fixed side walls)"),
+    "box.periodic_x": Key(bool, True, Relation(
+        "true or false (box.dimension = 2); true (3: periodic in x and y)", _periodic_x,
+        ("box.dimension",)), "periodic along x (else fixed side walls; 2-D only)"),
+    "box.dimension": Key(int, 2, _int_in(2, 3), "2: disks in a plane (x lateral, y "
+                         "vertical); 3: spheres (x and y lateral and periodic, z vertical); "
+                         "the disks.* keys then describe spheres", dims=(3,)),
+    "box.depth": Key(float, 0.0, Relation(
+        "0 (the width) or in [4 * disks.radius_max + 2 * solver.contact_margin, 1e6 * "
+        "disks.radius_min]", _depth, ("disks.radius_min", "disks.radius_max",
+                                      "solver.contact_margin")),
+        "3-D: box extent along y (periodic); 0: the width (a square base)", "R", dims=(3,)),
     "box.initial_packing_fraction": Key(float, 0.35, Range(0.0, 0.8, True, True,
                                                            why="a loose random start"),
                                         "area fraction of the random loose start"),
     "physics.mu": Key(float, 0.0, MU_RANGE, "disk-disk Coulomb friction coefficient"),
     "physics.plate_mu": Key(float, 0.0, MU_RANGE, "disk-wall Coulomb friction coefficient"),
     "physics.gravity": Key(float, 0.0, _closed(0.0, 1e12),
-                           "gravitational acceleration along -y", "F0/(rho R^3)"),
+                           "gravitational acceleration along the vertical (-y in 2-D, -z in "
+                           "3-D)", "F0/(rho R^(dim+1))"),
     "physics.rotation": Key(str, "auto", OneOf(("auto", "on", "off")),
                             "integrate disk rotation: auto = only when any friction is present"),
     "plates.bottom": Key(str, "fixed", OneOf(("fixed", "none")),
@@ -258,7 +301,7 @@ SCHEMA: dict[str, Key] = {
     "plates.top_force": Key(float, 1.0, _in_range(0.0, 1e100),
                             "downward force on the top plate", "F0"),
     "plates.top_mass": Key(float, 10.0, _in_range(0.0, 1e100), "mass of the top plate",
-                           "rho R^2"),
+                           "rho R^dim"),
     "solver.dt": Key(float, 0.02, _in_range(0.0, 1e6),
                      "time step, F the top-plate load (without a top plate "
                      "rho*gravity*R^2): scaling every load leaves the run unchanged",
@@ -298,7 +341,8 @@ SCHEMA: dict[str, Key] = {
                                 "largest mean speed of a loaded disk or the plate over a "
                                 "window, relative to sqrt(F0 rbar/mbar) (F0: top-plate load "
                                 "or mean disk weight), below which the packing is at rest"),
-    "jamming.certificate_speed": Key(float, 0.0, _nonneg("0: never"),
+    "jamming.certificate_speed": Key(float, 0.0, Relation(
+        ">= 0 (0: never); 0 with box.dimension = 3", _certificate_speed, ("box.dimension",)),
                                      "a window whose mean speed (as jamming.velocity_tol) is "
                                      "at most this ends the jam if its configuration admits a "
                                      "static network (an exact interior-point certificate); "
@@ -341,6 +385,11 @@ class Scene:
         return self.values["scene.name"] or Path(self.source).stem
 
     @property
+    def dim(self) -> int:
+        """Spatial dimension: 2 (disks) or 3 (spheres), ``box.dimension``."""
+        return self["box.dimension"]
+
+    @property
     def frictional(self) -> bool:
         """True when any contact can carry a tangential force."""
         return self["physics.mu"] > 0 or (self["physics.plate_mu"] > 0 and self.has_walls)
@@ -359,12 +408,17 @@ class Scene:
     def to_toml(self) -> str:
         """The complete effective scene (every key, defaults filled in) as TOML.
 
-        This is what packing files store, so a packing can be rebuilt exactly.
+        This is what packing files store, so a packing can be rebuilt exactly. Keys that
+        apply to 3-D scenes only (``box.dimension``, ``box.depth``: :attr:`Key.dims`) are
+        written for 3-D scenes only; a 2-D scene's text reads back to their defaults (and
+        is the text it was before spheres existed).
         """
         lines = [f"# effective scene resolved from {self.source} (scene schema version "
                  f"{SCHEMA_VERSION})"]
         section = None
         for key, value in self.values.items():
+            if self.dim not in SCHEMA[key].dims:     # a 3-D key in a 2-D scene
+                continue
             sec, name = key.split(".")
             if sec != section:
                 lines.append(f"\n[{sec}]")
@@ -386,29 +440,40 @@ class Scene:
         since time and speed are measured in units built from the plate load,
         ``solver.dt`` scales by sqrt(f) and ``jamming.velocity_tol`` (and a non-zero
         ``jamming.certificate_speed``) by 1/sqrt(f) (the same physical step and rest
-        criterion).
+        criterion). Spheres (3-D): lengths (width, a set depth, slice height) scale by
+        f = (n / n0)^(1/3), the plate's load and mass by its area factor g = f^2, dt by
+        sqrt(g) and velocity_tol by 1/sqrt(g).
         Returns (scene, one-line description of what was scaled)."""
         msg = SCHEMA["disks.n"].check(n, self.values) if _type_ok(n, int) else \
             "must be an integer"
         if msg:
             raise InputError(f"{self.source} (scaled to n disks)", "disks.n", msg, got=n)
         n0 = self["disks.n"]
-        f = math.sqrt(n / n0)
+        if self.dim == 2:
+            f = g = math.sqrt(n / n0)
+            law = f"f = sqrt({n}/{n0})"
+        else:
+            f = (n / n0) ** (1.0 / 3.0)
+            g = f * f
+            law = f"f = ({n}/{n0})^(1/3)"
         keys = ["box.width", "analysis.slice_height"]
         new = {"disks.n": n, "box.width": self["box.width"] * f,
                "analysis.slice_height": self["analysis.slice_height"] * f}
+        if self.dim == 3 and self["box.depth"] > 0:
+            keys.append("box.depth")
+            new["box.depth"] = self["box.depth"] * f
         if self["plates.top"] == "load":
             keys += ["plates.top_force", "plates.top_mass", "solver.dt", "jamming.velocity_tol"]
-            new.update({"plates.top_force": self["plates.top_force"] * f,
-                        "plates.top_mass": self["plates.top_mass"] * f,
-                        "solver.dt": self["solver.dt"] * math.sqrt(f),
-                        "jamming.velocity_tol": self["jamming.velocity_tol"] / math.sqrt(f)})
+            new.update({"plates.top_force": self["plates.top_force"] * g,
+                        "plates.top_mass": self["plates.top_mass"] * g,
+                        "solver.dt": self["solver.dt"] * math.sqrt(g),
+                        "jamming.velocity_tol": self["jamming.velocity_tol"] / math.sqrt(g)})
             if self["jamming.certificate_speed"] > 0:     # a speed like velocity_tol
                 keys.append("jamming.certificate_speed")
                 new["jamming.certificate_speed"] = (self["jamming.certificate_speed"]
-                                                    / math.sqrt(f))
+                                                    / math.sqrt(g))
         sc = self.with_overrides(**new)
-        what = (f"n {n0} -> {n} (f = sqrt({n}/{n0}) = {f:.4g}): "
+        what = (f"n {n0} -> {n} ({law} = {f:.4g}): "
                 + ", ".join(f"{k} {self[k]:g} -> {sc[k]:.6g}" for k in keys))
         return sc, what
 

@@ -9,7 +9,7 @@ flags tested down the call stack, and the dimension is the length of its lateral
 (2-D disks: one lateral axis x, y vertical; 3-D spheres: two lateral axes, the last axis
 vertical), not a second tree of code.
 
-Units: lengths in R, masses in rho R^(dim), forces in F0 (as the scene's keys).
+Units: lengths in R, masses in rho R^dim, forces in F0 (as the scene's keys).
 """
 from __future__ import annotations
 
@@ -181,7 +181,13 @@ class Setup:
         scene's keys)."""
         top = (Plate(scene["plates.top_force"], scene["plates.top_mass"])
                if scene["plates.top"] == "load" else None)
-        boundary = Boundary(lateral=(scene["box.width"],), periodic=(scene["box.periodic_x"],),
+        lateral = (scene["box.width"],)
+        periodic = (scene["box.periodic_x"],)
+        depth = scene["box.depth"]
+        if scene.dim == 3:      # spheres: periodic in x and y (the scene checks it)
+            lateral += (depth or scene["box.width"],)
+            periodic += (True,)
+        boundary = Boundary(lateral=lateral, periodic=periodic,
                             bottom=scene["plates.bottom"] == "fixed", top=top)
         physics = Physics(scene["physics.mu"], scene["physics.plate_mu"],
                           scene["physics.gravity"], bool(scene.rotation))
