@@ -277,3 +277,80 @@ def draw_packing(p: Packing, path, title: str | None = None, values=None,
     ``.png`` also gets a ``.pdf`` twin)."""
     ax = plot_packing(p, None, values=values, signed=signed, title=title)
     save_figure(ax.figure, path, dpi, tight=True)
+
+
+# ---- spheres (3-D): a slice and a projection ----------------------------------------
+
+def _sphere_view(ax, p, spheres, contacts, view, scale, rattler):
+    """One panel: the ``spheres`` as circles (their radius) and the ``contacts`` as lines
+    of width proportional to fn, projected on ``view``; plates and periodic edges."""
+    from matplotlib.collections import LineCollection, PatchCollection
+    from matplotlib.patches import Circle
+
+    circles = [Circle(p.pos[i, list(view)], p.r[i]) for i in spheres]
+    colours = [STYLE["rattler"] if rattler[i] else STYLE["disk"] for i in spheres]
+    ax.add_collection(PatchCollection(circles, facecolor=colours, edgecolor=STYLE["disk_edge"],
+                                      linewidth=0.3, alpha=0.6))
+    widths, _ = force_widths(p.fn[contacts], scale)
+    ax.add_collection(LineCollection(p.branch_segments(contacts, view)[0], linewidths=widths,
+                                     colors=STYLE["force"], capstyle="round"))
+    extent = [p.lateral[0], p.lateral[1], p.z_top]
+    for axis, along in ((0, "x"), (1, "y")):
+        if axis in view:
+            for v in (0.0, extent[axis]):
+                line = [[v, v], [p.z_bottom, p.z_top]] if view[1] == 2 else \
+                    ([[v, v], [0, extent[1]]] if axis == 0 else [[0, extent[0]], [v, v]])
+                ax.plot(*line, color=STYLE["periodic"], lw=0.8, ls=":")
+    if view[1] == 2:
+        for zz in (p.z_bottom, p.z_top):
+            if np.isfinite(zz):
+                ax.plot([0, extent[view[0]]], [zz, zz], color=STYLE["wall"], lw=2.0)
+    names = "xyz"
+    ax.set_xlabel(rf"${names[view[0]]}$ [$R$]")
+    ax.set_ylabel(rf"${names[view[1]]}$ [$R$]")
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+
+
+def plot_sphere_packing(p, fig=None, thickness: float | None = None):
+    """A sphere packing in two labelled panels (a new Figure if ``fig`` is None): a slice
+    of ``thickness`` [R] (default 2 r_max) through the middle of the box along y, seen
+    along y (spheres whose centres lie in it, contacts between them and with the
+    plates), and the whole packing seen from above (along z); line widths proportional
+    to fn, one scale for both. Returns the Figure."""
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
+
+    rattler = p.rattlers()
+    bearing = np.flatnonzero(p.force_bearing())
+    scale = float(p.fn[bearing].max()) if bearing.size else 1.0
+    half = 0.5 * (thickness if thickness is not None else 2.0 * float(p.r.max()))
+    yc = 0.5 * p.lateral[1]
+    in_slice = np.abs(p.pos[:, 1] - yc) <= half
+    both = [k for k in bearing if (p.a[k] < 0 or in_slice[p.a[k]])
+            and (p.b[k] < 0 or in_slice[p.b[k]])]
+    height = (p.z_top - p.z_bottom) if np.isfinite(p.z_top) else float(p.z.max())
+    fig = fig or Figure(figsize=(11.0, 1.0 + 4.0 * max(height / p.lateral[0], 1.0)))
+    side, top = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.0, 1.0]})
+    _sphere_view(side, p, np.flatnonzero(in_slice), both, (0, 2), scale, rattler)
+    side.set_title(f"slice {yc - half:.1f} R <= y <= {yc + half:.1f} R (centres), seen along "
+                   f"y: {int(in_slice.sum())} spheres", fontsize=9)
+    _sphere_view(top, p, np.argsort(p.z), bearing, (0, 1), scale, rattler)
+    top.set_title(f"all {p.n_spheres} spheres seen from above (along z)", fontsize=9)
+    extra = [Patch(facecolor=STYLE["disk"], edgecolor=STYLE["disk_edge"], label="sphere"),
+             Patch(facecolor=STYLE["rattler"], edgecolor=STYLE["disk_edge"],
+                   label="rattler (no load)")]
+    legend = force_legend(side, scale, quantity="f_n", extra=extra)
+    handles = legend.legend_handles
+    legend.remove()
+    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=5,
+               fontsize=8, frameon=False)
+    fig.suptitle(f"{p.scene_name or 'sphere packing'}: {p.n_spheres} spheres, mu = {p.mu:g}, "
+                 f"z = {p.coordination():.2f}; lines: contact forces, width ~ f_n",
+                 fontsize=10)
+    return fig
+
+
+def draw_sphere_packing(p, path, dpi: int = 150) -> None:
+    """:func:`plot_sphere_packing` written to ``path`` (a ``.png`` gets a ``.pdf`` twin)."""
+    save_figure(plot_sphere_packing(p), path, dpi, tight=True)

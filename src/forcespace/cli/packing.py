@@ -29,8 +29,9 @@ def register(sub):
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_info)
 
-    p = sub.add_parser("draw", help="draw a packing and its force network, or (with "
-                       "--difference) the paper's Fig. 2")
+    p = sub.add_parser("draw", help="draw a packing and its force network (spheres: a "
+                       "slice and a view from above), or (with --difference) the paper's "
+                       "Fig. 2")
     p.add_argument("packing")
     p.add_argument("-o", "--output", required=True, help="figure file (.png also writes .pdf)")
     p.add_argument("--difference", action="store_true",
@@ -94,7 +95,12 @@ def cmd_draw(args) -> int:
     check_problem_args(args.mu, args.gap_tol, args.slice)
     check_figure_file(args.output, inputs=[args.packing])
     if not args.difference:
-        draw_packing(read_packing(args.packing), args.output)
+        packing = read_packing(args.packing)
+        if getattr(packing, "dim", 2) == 3:
+            from ..plot import draw_sphere_packing
+            draw_sphere_packing(packing, args.output)
+        else:
+            draw_packing(packing, args.output)
         print(f"wrote {args.output}")
         return 0
     from .space import load_problem

@@ -51,6 +51,7 @@ def cmd_view(args) -> int:
     ens = read_ensemble(args.ensemble) if args.ensemble else None
     files = write_viewer_files(packing, args.output, formats, ens)
     print_result({"output": str(args.output), "files": [f.name for f in files],
-                  "n_disks": packing.n_disks, "n_contacts": packing.n_contacts,
+                  ("n_spheres" if getattr(packing, "dim", 2) == 3 else "n_disks"):
+                      packing.n_disks, "n_contacts": packing.n_contacts,
                   "ensemble_samples": ens.n_samples if ens is not None else None}, args.json)
     return 0

@@ -24,6 +24,12 @@ ParaView (``vtk``)
     data wall code) and ``packing.vtm``, a multiblock file that opens all three. Draw disks
     with a Glyph filter (Sphere or 2D circle, scale array ``diameter``, scale factor 1).
 
+Spheres (3-D packings): the same files with a third coordinate (:func:`write_ovito3`,
+:func:`write_vtk3`): the OVITO cell is periodic in x and y and closed by the plates in
+z, bonds carry both periodic images and the tangential force vector (``ftx, fty, ftz``
+beside its magnitude ``ft``); the ParaView spheres are in ``spheres.vtp`` (a Sphere
+glyph scaled by ``diameter`` draws them), the plates are outlined in ``walls.vtp``.
+
 Units: lengths R, forces F0 (the files say so in their headers/field names). Mobilisation
 is |ft| / (mu_k fn) with mu_k the contact's Coulomb coefficient (plate_mu on walls); it is
 0 where ft = 0 and NaN where a tangential force sits on a contact with mu_k fn = 0.
@@ -53,6 +59,7 @@ OVITO_CONTACT_PROPERTIES = {
     "fn_mean": "Mean Normal Force", "ft_mean": "Mean Tangential Force",
     "fn_std": "Normal Force Std", "ft_std": "Tangential Force Std",
     "spread": "Force Spread", "sampled": "Sampled",
+    "ftx": "Tangential Force X", "fty": "Tangential Force Y", "ftz": "Tangential Force Z",
 }
 
 
@@ -212,9 +219,11 @@ def _vtk_array(name, values, ncomp=1) -> str:
 
 
 def _vtp(points, verts=None, lines=None, point_data=None, cell_data=None) -> str:
-    """A VTK XML PolyData document: points (k, 2) [R] (z = 0), vertices (index arrays) or
+    """A VTK XML PolyData document: points (k, 2) [R] (z = 0) or (k, 3), vertices (index arrays) or
     lines (pairs), point and cell data {name: (k,) array}."""
-    pts = np.column_stack([points, np.zeros(len(points))]) if len(points) else np.zeros((0, 3))
+    pts = np.asarray(points, float).reshape(len(points), -1) if len(points) else np.zeros((0, 3))
+    if pts.shape[1] == 2:          # disks: in the plane z = 0
+        pts = np.column_stack([pts, np.zeros(len(pts))])
     parts = ['<?xml version="1.0"?>',
              '<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" '
              'header_type="UInt64">', "<PolyData>"]
@@ -257,13 +266,19 @@ def write_vtk(packing, directory, ensemble=None) -> list[Path]:
     (d / "walls.vtp").write_text(_vtp(wseg.reshape(-1, 2),
                                       lines=np.arange(2 * len(codes)).reshape(-1, 2),
                                       cell_data={"wall": codes}))
+    return multiblock(d, ("disks", "contacts", "walls"))
+
+
+def multiblock(d: Path, names) -> list[Path]:
+    """``packing.vtm`` in ``d``: a multiblock file that opens ``NAME.vtp`` of ``names``;
+    returns those files and it."""
     blocks = "\n".join(f'<DataSet index="{i}" name="{name}" file="{name}.vtp"/>'
-                       for i, name in enumerate(("disks", "contacts", "walls")))
+                       for i, name in enumerate(names))
     (d / "packing.vtm").write_text(
         '<?xml version="1.0"?>\n<VTKFile type="vtkMultiBlockDataSet" version="1.0" '
         f'byte_order="LittleEndian">\n<vtkMultiBlockDataSet>\n{blocks}\n'
         "</vtkMultiBlockDataSet>\n</VTKFile>\n")
-    return [d / f"{n}.vtp" for n in ("disks", "contacts", "walls")] + [d / "packing.vtm"]
+    return [d / f"{n}.vtp" for n in names] + [d / "packing.vtm"]
 
 
 def write_viewer_files(packing, directory, formats=FORMATS, ensemble=None) -> list[Path]:
@@ -278,13 +293,113 @@ def write_viewer_files(packing, directory, formats=FORMATS, ensemble=None) -> li
     if bad or not formats:
         raise InputError("viewer export", "format", "must be one or more of "
                          + ", ".join(FORMATS), got=bad or formats)
+    spheres = getattr(packing, "dim", 2) == 3
+    if spheres and ensemble is not None:
+        raise InputError("viewer export", "ensemble", "sphere packings have no ensembles yet "
+                         "(the samplers of S run on disks)")
     if ensemble is not None:
         ensemble.contact_columns(packing)          # refuse a foreign ensemble first
     d = check_output_dir(directory)
     with writing_run_dir(d) as tmp:
         files = []
         if "ovito" in formats:
-            files += write_ovito(packing, tmp, ensemble)
+            files += (write_ovito3 if spheres else write_ovito)(packing, tmp, ensemble)
         if "vtk" in formats:
-            files += write_vtk(packing, tmp, ensemble)
+            files += (write_vtk3 if spheres else write_vtk)(packing, tmp, ensemble)
     return [d / f.name for f in files]
+
+
+# ---- spheres (3-D) ---------------------------------------------------------------
+
+def _sphere_particles(p):
+    """(table of (n + w,) columns id, type, x, y, z, radius, rattler, body; id1, id2 (Nc,);
+    images (Nc, 2) of id2 relative to id1 after wrapping x and y into the box): spheres
+    are particles 1..n, each plate contact a wall-contact particle at its point."""
+    n = p.n_spheres
+    size = np.asarray(p.lateral, float)
+    shift = np.floor(p.pos[:, :2] / size)
+    xy = p.pos[:, :2] - shift * size
+    xy = np.where(xy >= size, xy - size, xy)          # round-off at the far edges
+    wall = np.flatnonzero((p.a < 0) | (p.b < 0))
+    w = wall.size
+    rat = p.rattlers()
+    pts = np.vstack([np.column_stack([xy, p.pos[:, 2]]), np.zeros((w, 3))])
+    body = np.concatenate([np.arange(n), np.zeros(w, np.int64)])
+    id1 = np.where(p.a >= 0, p.a + 1, 0)
+    id2 = np.where(p.b >= 0, p.b + 1, 0)
+    img = p.image.astype(np.int64).copy()
+    both = (p.a >= 0) & (p.b >= 0)
+    img[both] += (shift[p.b[both]] - shift[p.a[both]]).astype(np.int64)
+    img[~both] = 0
+    for q, k in enumerate(wall):
+        sphere = p.b[k] if p.a[k] < 0 else p.a[k]
+        if p.a[k] < 0:
+            id1[k] = n + q + 1
+        else:
+            id2[k] = n + q + 1
+        pts[n + q] = p.point[k]
+        pts[n + q, :2] -= shift[sphere] * size
+        body[n + q] = p.a[k] if p.a[k] < 0 else p.b[k]
+    table = {"id": np.arange(1, n + w + 1),
+             "type": np.concatenate([np.where(rat, RATTLER, DISK), np.full(w, WALL_POINT)]),
+             "x": pts[:, 0], "y": pts[:, 1], "z": pts[:, 2],
+             "radius": np.concatenate([p.r, np.full(w, WALL_POINT_RADIUS)]),
+             "rattler": np.concatenate([rat.astype(np.int64), np.zeros(w, np.int64)]),
+             "body": body}
+    return table, id1, id2, img
+
+
+def write_ovito3(packing, directory, ensemble=None) -> list[Path]:
+    """The OVITO files of a sphere packing (as :func:`write_ovito`; the cell periodic in
+    x and y over the box, z between the plates; bonds with both periodic images and the
+    tangential force vector)."""
+    p = packing
+    d = Path(directory)
+    table, id1, id2, img = _sphere_particles(p)
+    zlo = p.z_bottom if np.isfinite(p.z_bottom) else float((p.z - p.r).min())
+    zhi = p.z_top if np.isfinite(p.z_top) else float((p.z + p.r).max())
+    box = (f"ITEM: BOX BOUNDS pp pp ff\n0 {p.lateral[0]!r}\n0 {p.lateral[1]!r}\n"
+           f"{zlo!r} {zhi!r}\n")
+    head = f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{table['id'].size}\n{box}"
+    names = ["id", "type", "x", "y", "z", "radius", "rattler", "body"]
+    (d / "packing.dump").write_text(head + "ITEM: ATOMS " + " ".join(names) + "\n"
+                                    + _rows([table[c] for c in names]))
+    cols = {"id1": id1, "id2": id2, "imx": img[:, 0], "imy": img[:, 1],
+            "imz": np.zeros(p.n_contacts, np.int64)}
+    cols.update(p.contact_table())
+    head = f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ENTRIES\n{p.n_contacts}\n{box}"
+    (d / "contacts.dump").write_text(head + "ITEM: ENTRIES " + " ".join(cols) + "\n"
+                                     + _rows(list(cols.values())))
+    mapping = [OVITO_CONTACT_PROPERTIES[c] for c in cols]
+    (d / "load_in_ovito.py").write_text(_OVITO_SCRIPT.format(columns=mapping))
+    return [d / "packing.dump", d / "contacts.dump", d / "load_in_ovito.py"]
+
+
+def write_vtk3(packing, directory, ensemble=None) -> list[Path]:
+    """The ParaView files of a sphere packing (as :func:`write_vtk`): ``spheres.vtp`` holds
+    the spheres (draw them with a Sphere glyph scaled by ``diameter``), ``contacts.vtp``
+    one line per contact from a's centre to b's (periodic image; plate contacts end on
+    the plate), ``walls.vtp`` the outlines of the two plates."""
+    p = packing
+    d = Path(directory)
+    rat = p.rattlers().astype(np.int64)
+    (d / "spheres.vtp").write_text(_vtp(
+        p.pos, verts=np.arange(p.n_spheres)[:, None],
+        point_data={"radius": p.r, "diameter": 2 * p.r, "rattler": rat,
+                    "sphere": np.arange(p.n_spheres)}))
+    seg, _ = p.branch_segments()
+    (d / "contacts.vtp").write_text(_vtp(
+        seg.reshape(-1, 3), lines=np.arange(2 * p.n_contacts).reshape(-1, 2),
+        cell_data=p.contact_table()))
+    lx, ly = p.lateral
+    corners = np.array([(0, 0), (lx, 0), (lx, ly), (0, ly)], float)
+    pts, codes = [], []
+    for z, code in ((p.z_bottom, BOTTOM), (p.z_top, TOP)):
+        if np.isfinite(z):
+            for c in range(4):
+                pts += [(*corners[c], z), (*corners[(c + 1) % 4], z)]
+                codes.append(code)
+    (d / "walls.vtp").write_text(_vtp(np.array(pts, float).reshape(-1, 3),
+                                      lines=np.arange(len(pts)).reshape(-1, 2),
+                                      cell_data={"wall": np.array(codes, np.int64)}))
+    return multiblock(d, ("spheres", "contacts", "walls"))

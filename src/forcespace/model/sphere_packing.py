@@ -31,7 +31,7 @@ from .. import config
 from ..errors import InputError
 from .packing import Packing
 from .setup import Setup
-from .walls import BOTTOM, TOP
+from .walls import BOTTOM, TOP, contact_mu_array
 
 
 @dataclass
@@ -128,6 +128,39 @@ class SpherePacking:
                 ft=np.zeros((nc, 3)) if ft is None else
                 np.asarray(ft, float).reshape(nc, 3).copy(), scene_name=scene_name)
         return check_sphere_packing(p, "from_arrays")
+
+    def branch_segments(self, contacts=None, view=(0, 1, 2)):
+        """Segments (k, 2, len(view)) [R] of ``contacts`` (indices; default all) on the axes
+        ``view`` ((0, 1, 2): in space; (0, 2): projected on x-z), centre to centre with b
+        at its periodic image, plate contacts from the centre to the contact point; and
+        their fn (k,) [F0] (the 3-D form of :meth:`Packing.branch_segments`)."""
+        contacts = np.arange(self.n_contacts) if contacts is None else np.asarray(contacts,
+                                                                                  int)
+        size = np.array([self.lateral[0], self.lateral[1], 0.0])
+        view = list(view)
+        seg = np.empty((contacts.size, 2, len(view)))
+        for row, k in enumerate(contacts):
+            a, b = self.a[k], self.b[k]
+            pa = self.pos[a] if a >= 0 else self.point[k]
+            pb = self.pos[b] + np.append(self.image[k], 0) * size if b >= 0 else self.point[k]
+            seg[row] = pa[view], pb[view]
+        return seg, self.fn[contacts]
+
+    def contact_table(self) -> dict:
+        """Per-contact columns (each (Nc,)): contact, a, b, fn [F0], ft = |ft| [F0] and the
+        tangential force vector ftx, fty, ftz [F0], force |F| [F0], mobilisation
+        |ft|/(mu fn), mu, gap [R], bearing (force-bearing, 0/1): the disks' columns of
+        :meth:`Packing.contact_table` (without the image, here two numbers)."""
+        mu = contact_mu_array(self.a, self.b, self.mu, self.plate_mu)
+        ft = np.linalg.norm(self.ft, axis=1)
+        cap = mu * self.fn
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mob = np.where(ft == 0.0, 0.0, np.where(cap > 0, ft / cap, np.nan))
+        return {"contact": np.arange(self.n_contacts), "a": self.a.copy(), "b": self.b.copy(),
+                "fn": self.fn.copy(), "ft": ft, "ftx": self.ft[:, 0].copy(),
+                "fty": self.ft[:, 1].copy(), "ftz": self.ft[:, 2].copy(),
+                "force": np.hypot(self.fn, ft), "mobilisation": mob, "mu": mu,
+                "gap": self.gap.copy(), "bearing": self.force_bearing().astype(np.int64)}
 
     def __repr__(self) -> str:
         return (f"SpherePacking(n_spheres={self.n_spheres}, n_contacts={self.n_contacts}, "
