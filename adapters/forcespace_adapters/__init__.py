@@ -1,5 +1,9 @@
 """Cross-checks of forcespace against soft-particle DEM codes (LIGGGHTS 3.8, pymunk 7).
 
+Dimensions: LIGGGHTS runs disk packings in a 2-D slab (:mod:`.liggghts`) and sphere
+packings natively in 3-D (:mod:`.liggghts3d`); pymunk is a 2-D engine and takes disks
+only. ``export``, ``run``, ``import_run``, ``compare`` and ``distance`` take either kind.
+
 A plug-in over forcespace's public API (forcespace never imports it); it adds the
 ``export``, ``run``, ``import`` and ``distance`` commands to the ``forcespace`` CLI.
 
@@ -41,9 +45,10 @@ Public names:
     distance_between(rigid, soft1, soft2) -> rms difference of two soft networks / <Fn>
     match_contacts(rigid, soft) -> MatchResult
     liggghts (module): write_deck, run_deck, read_result, read_snapshots, precision_floor
+    liggghts3d (module): write_deck3, read_result3 (spheres; run with liggghts.run_deck)
     LiggghtsError                       LIGGGHTS missing or failed
 """
-from . import liggghts
+from . import liggghts, liggghts3d
 from .distance import compare, distance_between, make_problem, run_status, verdict
 from .liggghts import LiggghtsError, LiggghtsOptions
 from .matching import MatchResult, match_contacts
@@ -53,5 +58,5 @@ from .workflow import CODES, export, import_run, load_soft, make_options, run
 
 __all__ = ["CODES", "LiggghtsError", "LiggghtsOptions", "MatchResult", "PymunkOptions",
            "SoftProblem", "compare", "distance_between", "export", "import_run",
-           "liggghts", "load_soft", "make_options", "make_problem", "match_contacts", "run",
-           "run_status", "simulate", "soft_problem", "verdict"]
+           "liggghts", "liggghts3d", "load_soft", "make_options", "make_problem",
+           "match_contacts", "run", "run_status", "simulate", "soft_problem", "verdict"]

@@ -124,8 +124,10 @@ def register(subparsers):
     ex = subparsers.add_parser("export", help="write a LIGGGHTS deck or pymunk run directory")
     exs = ex.add_subparsers(dest="code", metavar="CODE")
     exs.required = True
-    el = exs.add_parser("liggghts", help="LIGGGHTS deck (full packing, servo top plate)")
-    ep = exs.add_parser("pymunk", help="pymunk run directory (full packing or slice)")
+    el = exs.add_parser("liggghts", help="LIGGGHTS deck (full packing, servo top plate; "
+                        "disks in a 2-D slab, spheres in 3-D)")
+    ep = exs.add_parser("pymunk", help="pymunk run directory (full packing or slice; "
+                        "pymunk is 2-D: disks only)")
     for p in (el, ep):
         p.add_argument("packing", help="packing file (HDF5)")
         p.add_argument("--top", choices=("plate", "loads"), default="plate",

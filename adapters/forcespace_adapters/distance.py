@@ -37,14 +37,19 @@ from forcespace import Packing
 from .matching import MatchResult, match_contacts
 
 INSIDE_FACTOR = 10.0
+IN_S_VIOLATION = 1e-9     # [<Fn>] a sphere network violating S by less is a point of S
 
 
 def make_problem(rigid: Packing, top: str = "plate"):
     """The statics problem (S) to measure distances in: ``top="plate"`` (default) the
     plate problem (TOP contacts unknown, plate balance a row), ``"loads"`` the full
-    problem (TOP forces fixed); see the module docstring."""
+    problem (TOP forces fixed); see the module docstring. Spheres: the same two as
+    second-order-cone problems (``fs.sphere_plate_problem``, ``fs.sphere_full_problem``)."""
     if top not in ("plate", "loads"):
         raise InputError("distance", "top", "must be 'plate' or 'loads'", got=top)
+    if getattr(rigid, "dim", 2) == 3:
+        return fs.sphere_plate_problem(rigid) if top == "plate" else \
+            fs.sphere_full_problem(rigid)
     return fs.plate_problem(rigid) if top == "plate" else fs.full_problem(rigid)
 
 
@@ -67,10 +72,16 @@ def check_made_from(rigid: Packing, soft: Packing) -> None:
         raise InputError(src, "disks", f"are not those of {whose} ({soft.n_disks} disks, "
                          f"it has {n}, or other radii): a soft network is measured in S of "
                          "the packing it was made from")
-    dx = soft.x - rigid.x
-    if rigid.periodic_x:
-        dx -= rigid.width * np.round(dx / rigid.width)
-    moved = float(np.hypot(dx, soft.y - rigid.y).max(initial=0.0))
+    if getattr(rigid, "dim", 2) == 3:       # spheres: periodic in x and y
+        d = soft.pos - rigid.pos
+        size = np.asarray(rigid.lateral, float)
+        d[:, :2] -= size * np.round(d[:, :2] / size)
+        moved = float(np.linalg.norm(d, axis=1).max(initial=0.0))
+    else:
+        dx = soft.x - rigid.x
+        if rigid.periodic_x:
+            dx -= rigid.width * np.round(dx / rigid.width)
+        moved = float(np.hypot(dx, soft.y - rigid.y).max(initial=0.0))
     if not moved <= 0.5 * float(rigid.r.min(initial=1.0)):
         raise InputError(src, "disks", f"lie up to {moved:.3g} R from those of {whose} "
                          "(more than half a radius): not a soft network of that packing")
@@ -89,19 +100,27 @@ def compare(rigid: Packing, soft: Packing, problem=None,
             match: MatchResult | None = None) -> dict:
     """Distance to S and matching report of ``soft`` against ``rigid`` (JSON-ready dict).
 
-    Keys: relative_distance, absolute_distance [F0], unmatched_contacts,
+    Keys: relative_distance, absolute_distance [F0], rigid_equilibrium_residual and
+    coulomb_violation (the soft forces on the rigid geometry: largest |A x - b| and
+    largest excess over the Coulomb cones, / <Fn>), unmatched_contacts,
     lost_contacts, max_unmatched_force(_rel), max_lost_rigid_force(_rel),
     max_overlap [R], soft_equilibrium_residual (soft geometry), n_unknown_contacts,
     force_scale [F0], plus the soft run's parameters. The projection is
     ``forcespace.space.projection.distance_to_S`` (exact, KKT-verified). ``verdict``:
     whether the network is inside S at the soft code's own accuracy (:func:`verdict`).
     """
-    from forcespace.extend import distance_to_S
     prob, x, m = soft_vector(rigid, soft, problem)
     viol = prob.violation(x)
-    d = distance_to_S(prob, x)
-    rel, ab, method = d.relative, d.absolute, d.method
+    if getattr(rigid, "dim", 2) == 3:
+        rel, ab, method = _sphere_distance(prob, x)
+    else:
+        from forcespace.extend import distance_to_S
+        d = distance_to_S(prob, x)
+        rel, ab, method = d.relative, d.absolute, d.method
+    eq, cone = prob.residuals(x)
     out = {"relative_distance": rel, "absolute_distance": ab, "max_violation_rel": viol,
+           "rigid_equilibrium_residual": float(np.abs(eq).max(initial=0.0) / prob.force_scale),
+           "coulomb_violation": float(max(cone.max(initial=0.0), 0.0) / prob.force_scale),
            **m.summary(prob.force_scale),
            "max_overlap": soft.max_overlap(),
            "soft_equilibrium_residual": soft.equilibrium_residual(),
@@ -113,6 +132,24 @@ def compare(rigid: Packing, soft: Packing, problem=None,
     out["soft_run_converged"], out["soft_run_reason"] = run_status(soft.meta)
     out["verdict"] = verdict(rel, soft, out)
     return out
+
+
+def _sphere_distance(problem, x):
+    """(relative, absolute [F0], method) distance of x from S of a sphere problem: 0 when x
+    violates equilibrium and the cones by at most IN_S_VIOLATION <Fn> (an engine network,
+    static to 1e-10, is a point of S), else the nearest admissible network by Clarabel's
+    second-order-cone program (``fs.nearest_admissible``); relative = rms per contact /
+    <Fn>. An interior-point method meets a nearest point on a cone's boundary (a sliding
+    contact) only to about the square root of its tolerance: distances below ~1e-6 are at
+    the solver's accuracy (an admissible engine network measured 1.7e-6 this way)."""
+    if problem.violation(x) <= IN_S_VIOLATION:
+        return 0.0, 0.0, "clarabel socp"
+    near = fs.nearest_admissible(problem, target=x)
+    if not near.feasible:
+        raise InputError("distance", "S", f"the rigid packing's S is empty here (Clarabel: "
+                         f"{near.status})")
+    ab = float(np.linalg.norm(x - near.x))
+    return ab / (problem.force_scale * np.sqrt(problem.n_contacts)), ab, "clarabel socp"
 
 
 def verdict(relative_distance: float, soft: Packing, report: dict | None = None) -> dict:

@@ -604,7 +604,7 @@ def _read_dump_blocks(path, section: str) -> dict:
     return out
 
 
-def _read_dump_table(path, section: str) -> np.ndarray:
+def read_dump_table(path, section: str) -> np.ndarray:
     blocks = _read_dump_blocks(path, section)
     if not blocks:
         raise LiggghtsError(f"{path}: no 'ITEM: {section}' block; the run did not finish")
@@ -636,7 +636,7 @@ def read_snapshots(directory, rigid: Packing | None = None):
     disk-disk tangential forces are 0, see :func:`_soft_network`).
     """
     d = Path(directory)
-    meta, status, screen = _run_files(d)
+    meta, status, screen = run_files(d)
     atoms = _read_dump_blocks(d / "snap_atoms.dump", "ATOMS")
     cont = _read_dump_blocks(d / "snap_contacts.dump", "ENTRIES")
     loops = _loop_seconds(screen)
@@ -651,7 +651,7 @@ def read_snapshots(directory, rigid: Packing | None = None):
     return out
 
 
-def _run_files(d: Path):
+def run_files(d: Path):
     """(deck.json, status.json, screen lines) of a finished run directory."""
     try:
         meta = json.loads((d / "deck.json").read_text())
@@ -676,14 +676,14 @@ def read_result(directory, rigid: Packing | None = None):
     from deck.json. Returns (soft_packing, run_info dict).
     """
     d = Path(directory)
-    meta, status, screen = _run_files(d)
+    meta, status, screen = run_files(d)
     y_plate = float("nan")
     if meta.get("top_plate") is not None:
         vals = [ln.split()[1] for ln in screen if ln.startswith("FORCESPACE_PLATE_Y ")]
         if vals:        # decks older than this line: plate position unknown, gap 0
             y_plate = float(vals[-1]) + float(meta.get("y_shift", 0.0))
-    return _soft_network(d, meta, status, _read_dump_table(d / "atoms.dump", "ATOMS"),
-                         _read_dump_table(d / "contacts.dump", "ENTRIES"), y_plate, rigid)
+    return _soft_network(d, meta, status, read_dump_table(d / "atoms.dump", "ATOMS"),
+                         read_dump_table(d / "contacts.dump", "ENTRIES"), y_plate, rigid)
 
 
 def _soft_network(d: Path, meta, status, atoms, cont, y_plate, rigid):

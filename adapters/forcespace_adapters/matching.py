@@ -7,7 +7,8 @@ through the separation direction (rigid and soft normals must agree).
 
 The soft force vector of a matched contact is expressed on the rigid
 contact's own normal and tangent (force on the rigid ``b``), which is what the
-force ensemble S of the rigid packing is defined in. Rigid contacts the soft
+force ensemble S of the rigid packing is defined in; for spheres the tangential part
+is the vector perpendicular to the rigid normal (ft (Nc, 3)). Rigid contacts the soft
 run does not have get zero force ("lost"); soft contacts the rigid packing
 does not have are reported with the force they carry ("unmatched"; their
 force is absent from the mapped state).
@@ -23,7 +24,8 @@ from forcespace import Packing
 
 @dataclass
 class MatchResult:
-    """fn, ft (Nc_rigid,) [F0]: soft forces on the rigid contacts, rigid frame.
+    """fn, ft (Nc_rigid,) [F0]: soft forces on the rigid contacts, rigid frame (ft (Nc, 3)
+    for spheres).
 
     ``soft_index`` (Nc_rigid,) int: matched soft contact or -1.
     ``unmatched``: soft contacts without rigid counterpart, each
@@ -53,7 +55,8 @@ def _key(a, b):
 
 
 def match_contacts(rigid: Packing, soft: Packing) -> MatchResult:
-    """Match ``soft`` contacts onto ``rigid`` ones (same disk indices required)."""
+    """Match ``soft`` contacts onto ``rigid`` ones (same disk indices required; disks or
+    spheres, both of the same kind)."""
     if soft.n_disks != rigid.n_disks:
         raise ValueError(f"soft network has {soft.n_disks} disks, rigid packing {rigid.n_disks}")
     index = {}
@@ -61,11 +64,12 @@ def match_contacts(rigid: Packing, soft: Packing) -> MatchResult:
         index.setdefault(_key(soft.a[k], soft.b[k]), []).append(k)
     Fsoft = soft.contact_forces()
     nc = rigid.n_contacts
+    spheres = getattr(rigid, "dim", 2) == 3
     fn = np.zeros(nc)
-    ft = np.zeros(nc)
+    ft = np.zeros((nc, 3)) if spheres else np.zeros(nc)
     soft_index = -np.ones(nc, dtype=np.int64)
     used = np.zeros(soft.n_contacts, dtype=bool)
-    tr = rigid.tangent
+    tr = None if spheres else rigid.tangent
     for k in range(nc):
         a, b = rigid.a[k], rigid.b[k]
         best = None
@@ -82,16 +86,17 @@ def match_contacts(rigid: Packing, soft: Packing) -> MatchResult:
         q, same = best
         F = Fsoft[q] if same else -Fsoft[q]         # force on rigid b
         fn[k] = F @ rigid.normal[k]
-        ft[k] = F @ tr[k]
+        ft[k] = F - fn[k] * rigid.normal[k] if spheres else F @ tr[k]
         soft_index[k] = q
         used[q] = True
     Fr = np.linalg.norm(rigid.contact_forces(), axis=1)
     lost = [{"k": int(k), "a": int(rigid.a[k]), "b": int(rigid.b[k]),
-             "image": int(rigid.image[k]), "rigid_fn": float(rigid.fn[k]),
+             "image": np.asarray(rigid.image[k]).tolist(), "rigid_fn": float(rigid.fn[k]),
              "rigid_force": float(Fr[k])} for k in np.flatnonzero(soft_index < 0)]
     Fs = np.linalg.norm(Fsoft, axis=1)
     unmatched = [{"q": int(q), "a": int(soft.a[q]), "b": int(soft.b[q]),
-                  "image": int(soft.image[q]), "fn": float(soft.fn[q]), "force": float(Fs[q]),
+                  "image": np.asarray(soft.image[q]).tolist(), "fn": float(soft.fn[q]),
+                  "force": float(Fs[q]),
                   "overlap": float(max(0.0, -soft.gap[q]))}
                  for q in np.flatnonzero(~used)]
     return MatchResult(fn, ft, soft_index, unmatched, lost)

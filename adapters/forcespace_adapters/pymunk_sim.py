@@ -1,5 +1,9 @@
 """pymunk 7 adapter: solve a packing's boundary-value problem with Chipmunk's rigid-body solver.
 
+pymunk (Chipmunk) is a 2-D physics engine: it takes disk packings only. A sphere packing
+(``box.dimension = 3``) is cross-validated with LIGGGHTS' 3-D deck
+(:mod:`forcespace_adapters.liggghts3d`); ``forcespace export pymunk`` refuses it in one line.
+
 Mapping (units are forcespace's: lengths R, forces F0, density rho):
 
 * every active disk -> dynamic body, mass rho*pi*r^2, moment m r^2/2, a

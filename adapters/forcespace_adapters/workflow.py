@@ -17,12 +17,12 @@ from pathlib import Path
 import numpy as np
 
 from forcespace.errors import InputError
-from forcespace import Packing
+from forcespace import Packing, SpherePacking
 from forcespace.extend import (check_output_dir, check_output_file, probe_writable,
                                recording_new_entries, writing_run_dir)
 from forcespace import read_packing, write_packing
 
-from . import liggghts
+from . import liggghts, liggghts3d
 from .problem import soft_problem
 from .pymunk_sim import PymunkOptions, simulate
 
@@ -74,7 +74,9 @@ def make_options(code: str, options=None, **kw):
 def export(code: str, packing, directory, options=None, y_range=None,
            top: str = "plate", **option_kw) -> Path:
     """Write a run directory for ``code`` ("liggghts" or "pymunk") from ``packing`` (a
-    packing file path or a :class:`~forcespace.model.packing.Packing`) and return it.
+    packing file path, a :class:`~forcespace.Packing` or a
+    :class:`~forcespace.SpherePacking`: spheres export to LIGGGHTS' 3-D deck,
+    :mod:`.liggghts3d`; pymunk is 2-D) and return it.
 
     ``options``: options object, dict or None, ``option_kw`` override its fields (see
     :func:`make_options`), e.g. ``export("liggghts", "p.h5", "deck", kn=1e6)``.
@@ -83,15 +85,19 @@ def export(code: str, packing, directory, options=None, y_range=None,
     forces as fixed dead loads; unstable for real packings).
     """
     opt = make_options(code, options, **option_kw)
-    if isinstance(packing, Packing):
+    if isinstance(packing, (Packing, SpherePacking)):
         rigid, source = packing, "packing"
     else:
         rigid, source = read_packing(packing), packing
-    prob = soft_problem(rigid, y_range, top=top, source=source)
+    spheres = getattr(rigid, "dim", 2) == 3
+    if spheres:
+        _check_sphere_export(code, y_range, top, source)
+    else:
+        prob = soft_problem(rigid, y_range, top=top, source=source)
     d = check_output_dir(directory)
 
     def run_files(folder: Path) -> None:
-        if isinstance(packing, Packing):
+        if isinstance(packing, (Packing, SpherePacking)):
             write_packing(rigid, folder / "rigid.h5")
         else:
             shutil.copyfile(packing, folder / "rigid.h5")
@@ -99,10 +105,13 @@ def export(code: str, packing, directory, options=None, y_range=None,
             "code": code, "options": asdict(opt), "top": top,
             "units": "kn in <Fn>/R, tolerances in <Fn>, pymunk dt in sqrt(m_min R/<Fn>)",
             "y_range": list(y_range) if y_range is not None else None,
-            "packing": str(Path(packing).resolve()) if not isinstance(packing, Packing)
+            "packing": str(Path(packing).resolve())
+            if not isinstance(packing, (Packing, SpherePacking))
             else None})
 
-    if code == "liggghts":
+    if spheres:
+        liggghts3d.write_deck3(rigid, d, opt, source=source, also=run_files)
+    elif code == "liggghts":
         if y_range is not None:
             raise InputError(source, "slice", "LIGGGHTS export supports the full packing "
                              "only (slice loads need per-atom torques); use pymunk")
@@ -111,6 +120,18 @@ def export(code: str, packing, directory, options=None, y_range=None,
         with writing_run_dir(d) as folder:        # all of it at once, or nothing
             run_files(folder)
     return d
+
+
+def _check_sphere_export(code: str, y_range, top: str, source) -> None:
+    """InputError for what a sphere packing cannot be exported as: pymunk is a 2-D engine,
+    and the 3-D deck runs the full packing under its load-controlled plate only."""
+    if code != "liggghts":
+        raise InputError(source, "code", "pymunk is a 2-D physics engine (disks only): "
+                         "export a sphere packing to liggghts", got=code)
+    if y_range is not None or top != "plate":
+        raise InputError(source, "y_range / top", "the 3-D LIGGGHTS deck runs the full "
+                         "sphere packing under its load-controlled top plate only",
+                         got=(y_range, top))
 
 
 def run(code: str, directory, binary=None, timeout=None, progress=None,
@@ -147,7 +168,9 @@ def load_soft(code: str, directory) -> tuple[Packing, Packing]:
         raise InputError(directory, "run.json code", f"this directory is for {meta['code']}", got=code)
     d = Path(directory)
     rigid = read_packing(d / "rigid.h5")
-    if code == "liggghts":
+    if code == "liggghts" and getattr(rigid, "dim", 2) == 3:
+        soft, _ = liggghts3d.read_result3(d, rigid)
+    elif code == "liggghts":
         soft, _ = liggghts.read_result(d, rigid)
     else:
         if not (d / "result.h5").exists():
