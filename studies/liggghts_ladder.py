@@ -13,6 +13,15 @@ floor), run, read back, and measured against the plate S
 (``forcespace_adapters.distance.compare``: relative distance = rms per contact distance to
 S in <Fn>, and the verdict at the soft code's own accuracy). One JSON per run in
 ``OUT/runs/`` (a rerun skips the runs already there); ``OUT/ladder.md`` is the table.
+
+Sphere packings (issue 43) run natively in 3-D (``forcespace_adapters.liggghts3d``: box
+periodic in x and y, plates as walls, the same load-controlled top plate and convergence
+test) and are measured against the sphere plate problem; for both kinds the table adds the
+soft network's equilibrium residual on the rigid geometry and its largest Coulomb excess,
+both in <Fn> (``compare``: rigid_equilibrium_residual, coulomb_violation)::
+
+    python studies/liggghts_ladder.py P1.h5 P2.h5 P3.h5 --kn 1e3 1e4 1e5 \
+        --out studies/results/liggghts_ladder3d
 """
 from __future__ import annotations
 
@@ -28,17 +37,23 @@ def run_one(packing_path: str, K: float, tolerance: float, work: str,
             remeasure: bool = False) -> dict:
     """One ladder run; returns its record (JSON-ready)."""
     from forcespace import read_packing
-    from forcespace_adapters import compare, liggghts as L, make_problem, soft_problem
+    from forcespace_adapters import (compare, liggghts as L, liggghts3d as L3, make_problem,
+                                     soft_problem)
 
     p = read_packing(packing_path)
+    spheres = getattr(p, "dim", 2) == 3
     d = Path(work)
     t = time.perf_counter()
     if remeasure and (d / "status.json").is_file():     # measure a finished deck again
         st = json.loads((d / "status.json").read_text())
     else:
-        L.write_deck(soft_problem(p), d, L.LiggghtsOptions(kn=K, tolerance=tolerance))
+        opt = L.LiggghtsOptions(kn=K, tolerance=tolerance)
+        if spheres:
+            L3.write_deck3(p, d, opt, source=packing_path)
+        else:
+            L.write_deck(soft_problem(p), d, opt)
         st = L.run_deck(d)
-    soft, info = L.read_result(d, p)
+    soft, info = (L3.read_result3 if spheres else L.read_result)(d, p)
     c = compare(p, soft, make_problem(p, "plate"))
     scale = info["force_scale"]
     force, torque, plate = soft.net_forces()
@@ -49,6 +64,8 @@ def run_one(packing_path: str, K: float, tolerance: float, work: str,
             "static_residual": info["max_residual_force"] / scale,
             "plate_error": abs(plate) / scale,
             "max_overlap": c["max_overlap"], "relative_distance": c["relative_distance"],
+            "rigid_residual": c["rigid_equilibrium_residual"],
+            "coulomb_violation": c["coulomb_violation"], "dimension": 3 if spheres else 2,
             "inside_S": c["verdict"]["inside_S"], "verdict": c["verdict"]["text"],
             "unmatched_contacts": c["unmatched_contacts"], "lost_contacts": c["lost_contacts"],
             "liggghts_s": st["wall_time_s"], "total_s": time.perf_counter() - t}
@@ -61,15 +78,17 @@ def _cell(v, fmt="{:.2g}"):
 def table(rows) -> str:
     head = ("| μ | seed | K = kn R/⟨Fn⟩ | steps | converged | tolerance used [⟨Fn⟩] | "
             "static residual [⟨Fn⟩] | plate error [⟨Fn⟩] | max overlap [R] | "
+            "residual on the rigid geometry [⟨Fn⟩] | Coulomb excess [⟨Fn⟩] | "
             "relative distance to S | inside S at its accuracy |\n"
-            "|---|---|---|---|---|---|---|---|---|---|---|\n")
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
     lines = []
     for r in sorted(rows, key=lambda r: (r["mu"], r["seed"], r["K"])):
         lines.append(f"| {r['mu']:g} | {r['seed']} | {r['K']:.0e} | {r['steps']:,} | "
                      f"{'yes' if r['converged'] else '**no**'} | {r['tolerance_used']:.1e} | "
                      f"{r['static_residual']:.1e} | {r['plate_error']:.1e} | "
-                     f"{r['max_overlap']:.1e} | {r['relative_distance']:.2e} | "
-                     f"{'yes' if r['inside_S'] else 'no'} |")
+                     f"{r['max_overlap']:.1e} | {_cell(r.get('rigid_residual'), '{:.1e}')} | "
+                     f"{_cell(r.get('coulomb_violation'), '{:.1e}')} | "
+                     f"{r['relative_distance']:.2e} | {'yes' if r['inside_S'] else 'no'} |")
     return head + "\n".join(lines) + "\n"
 
 

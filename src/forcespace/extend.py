@@ -49,6 +49,8 @@ _SURFACE = {
     "Contacts": ("engine.records", "Contacts"), "Motion": ("engine.records", "Motion"),
     "SweepSettings": ("engine.records", "SweepSettings"),
     "row_order": ("engine.bodies", "row_order"),
+    "frozen_contacts": ("engine.frozen", "frozen_contacts"),
+    "frozen_contacts3": ("engine.frozen", "frozen_contacts3"),
     "N_WALL_SLOTS": ("model.walls", "N_WALL_SLOTS"), "SLOT_TOP": ("model.walls", "SLOT_TOP"),
     "kernel_body_index": ("model.walls", "kernel_body_index"),
     # space
