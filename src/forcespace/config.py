@@ -128,6 +128,9 @@ SPREAD_FLOOR = 1e-8         # [<Fn>] rms spread per contact below which S is num
                             # point (no Fig. 3 ratio of two round-off numbers)
 ROUNDING_ROW_TOL = 1e-10    # [1] rows of the slack-scaled {A x <= 1} below this x the largest
                             # row norm never bind (contacts that do not vary in S)
+ROUNDING_MIN_CLEARANCE = 1e-3  # [1] a rounding ellipsoid that must shrink by more than this
+                            # factor to fit inside the polytope (its centre on a facet up to
+                            # round-off, or not positive definite) is rejected, not used
 ROUNDING_CENTRED = 1e-3     # [1] Newton decrement at which the John rounding's centre is found
 LEWIS_CENTRED = 1e-6        # [1] half the squared Newton decrement at which the billiard walk's
                             # Lewis rounding counts its centre as found (exact line search:

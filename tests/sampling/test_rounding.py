@@ -71,3 +71,47 @@ def test_rounding_refuses_an_exterior_start_and_an_unknown_method():
         john_ellipsoid(H, s, np.array([1.0, 0.0]))
     with pytest.raises(InputError, match="method"):
         mve_rounding(H, s, np.zeros(2), method="covariance")
+
+
+@pytest.mark.parametrize("miss", [-4e-16, 0.0, 4e-16])
+def test_a_round_whose_centre_sits_on_a_facet_is_rejected_whatever_the_sign(monkeypatch, miss):
+    """An unconverged MVE round whose centre lies on a facet up to round-off (slack -3e-19
+    or +3e-19 on the n = 400 slice, the sign set by the BLAS thread count): a centre at
+    +3e-19 used to be accepted, the next round started on the facet and its ellipsoid was
+    indefinite ("not positive definite"). Here the MVE of the box |y_j| <= a_j is shifted
+    onto the facet y_0 = a_0 (slack: miss, two ulp of a_0 either side or 0): the round is rejected whatever the sign, John's
+    rounding takes over, and the map sends the box's centre to w = 0 with its axes a_j."""
+    from forcespace.sampling import rounding
+    a = np.array([1.0, 3.0, 0.2])
+    H = np.vstack([np.eye(3), -np.eye(3)])
+    s = np.r_[a, a]
+
+    def drifted(H_, s_, y0, **kw):
+        c, E2, _, it = mve(H_, s_, y0, **kw)
+        c = c.copy()
+        c[0] = (s_[0] - miss) / H_[0, 0]
+        return c, E2, False, it
+    monkeypatch.setattr(rounding, "mve", drifted)
+    shift, L, info = mve_rounding(H, s, np.full(3, 0.1), method="mve")
+    assert info["fallback_from"]["rejected_round"] == 1
+    assert info["fallback_from"]["rejected_clearance"] < 1e-3 and info["method"] == "john"
+    assert np.abs(shift).max() < 1e-3 * a.min()
+    assert np.allclose(np.sort(np.linalg.svd(L, compute_uv=False)), np.sort(a), rtol=0.05)
+
+
+def test_a_round_with_an_indefinite_ellipsoid_is_rejected_not_raised(monkeypatch):
+    """A later round whose solver hands back an indefinite or non-finite E2 (round-off in
+    a start on a facet) is rejected: the earlier rounds are kept, no exception."""
+    from forcespace.sampling import rounding
+    H = np.vstack([np.eye(2), -np.eye(2)]) @ np.diag([1.0, 1e-4])
+    s = np.ones(4)
+    calls = []
+
+    def second_bad(H_, s_, y0, **kw):
+        calls.append(1)
+        c, E2, ok, it = mve(H_, s_, y0, **kw)
+        return (c, E2, False, it) if len(calls) == 1 else (c, np.diag([1.0, -1.0]), ok, it)
+    monkeypatch.setattr(rounding, "mve", second_bad)
+    shift, L, info = mve_rounding(H, s, np.zeros(2), ratio=1.0 + 1e-12, method="mve")
+    assert info["rounds"] == 1 and info["rejected_round"] == 2
+    assert np.allclose(np.sort(np.abs(np.linalg.eigvalsh(L @ L.T))), [1.0, 1e8], rtol=1e-3)

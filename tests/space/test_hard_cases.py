@@ -235,19 +235,29 @@ def _rectangle_centred_outside():
     return prob, an, fake
 
 
-def test_an_mve_round_whose_centre_drifts_onto_a_facet_is_redone_by_john():
+@pytest.mark.parametrize("jitter_seed", [None, 6])
+def test_an_mve_round_whose_centre_drifts_onto_a_facet_is_redone_by_john(jitter_seed):
     """Size study, n = 400, mu = 0.01, seed 3 (slice 39.6 R, dim S 189, 916 rows): the
     MVE interior point stopped unconverged after 119 iterations with its centre on a
     facet (slack -3e-19), and hit-and-run's next round refused that start. The round is
-    rejected, the rounding is John's, and the walk starts strictly inside."""
+    rejected, the rounding is John's, and the walk starts strictly inside. The slack's
+    sign is round-off: with 2 BLAS threads on another machine it came out +3e-19, the
+    round was accepted and the next one's ellipsoid was indefinite; ``jitter_seed``
+    multiplies the rows by 1 + 1e-15 N(0, 1), which flips it here too (before the
+    clearance check, one BLAS thread: slack +3e-19, then "MVE rounding: ellipsoid not
+    positive definite"; two threads: that round accepted, no John fallback)."""
     from forcespace.sampling import hit_and_run as har
     from forcespace.sampling.frame import frame as frame_of
     prob = slice_problem(fs.read_packing(DATA / "paper_fast_n400_mu0.01_s3.h5"),
                          39.59797974644666)
     f = frame_of(prob)
     assert f.H0.shape == (916, 189) and har.rounding_method(916) == "mve"
-    y0, L, info = har.rounding(f.H0, f.s0, prob.force_scale)
+    H0 = f.H0
+    if jitter_seed is not None:
+        H0 = H0 * (1 + 1e-15 * np.random.default_rng(jitter_seed).standard_normal(H0.shape))
+    y0, L, info = har.rounding(H0, f.s0, prob.force_scale)
     assert info["fallback_from"]["rejected_round"] == 1 and info["method"] == "john"
+    assert info["fallback_from"]["rejected_clearance"] < 1e-6
     assert (f.s0 - prob.force_scale * f.H0 @ y0).min() > 1e-3 * f.s0.min()
     assert info["axis_ratio"][-1] < 6 and all(info["converged"])
 

@@ -80,6 +80,9 @@ def _spd_solve(fac, b):
         sla.lu_solve(f, b, check_finite=False)
 
 
+MVE_STALL = 5   # [iterations] without a 1e-6 relative fall of the KKT residual: stop
+
+
 def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7, minmu: float = 1e-8,
         callback=None):
     """Maximum-volume ellipsoid inscribed in {H y <= s}.
@@ -89,7 +92,8 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7, minmu: float = 1e-8,
     converged: bool, iterations). The iterate is feasible throughout, so an
     unconverged result is still an inscribed ellipsoid (merely not the largest).
     Stops when the KKT residual is below ``tol`` (1 + sqrt(p)) and the
-    centring parameter has reached ``minmu``. ``callback(it, res, gap)`` is
+    centring parameter has reached ``minmu``, or unconverged when the residual has not
+    fallen for MVE_STALL iterations. ``callback(it, res, gap)`` is
     called once per interior-point iteration (progress display).
 
     Cost per iteration: one Cholesky factorisation of the p x p matrix Gm
@@ -113,7 +117,8 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7, minmu: float = 1e-8,
     z = np.ones(p)
     astep, Adx = 0.0, np.zeros(p)
     ok = False
-    it = 0
+    it = stalled = 0
+    last_res = np.inf
     for it in range(maxiter):
         if it > 0:
             bmAx = bmAx - astep * Adx
@@ -143,6 +148,11 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7, minmu: float = 1e-8,
         if res < tol * (1 + bnrm) and rmu <= minmu:
             ok = True
             break
+        stalled = stalled + 1 if res >= (1 - 1e-6) * last_res else 0
+        if stalled >= MVE_STALL:
+            break      # the iterate no longer moves (its centre on a facet: the n = 400
+                       # slice's residual stayed at 311 from iteration 15 to 119)
+        last_res = res
         dx, Adx, dy, dyDy, dz = _mve_direction(A, Q, y, z, h, yh, R1, R2, R3)
         ax = -1.0 / min(np.min(-Adx / bmAx), -0.5)
         ay = -1.0 / min(np.min(dyDy), -0.5)
@@ -302,35 +312,67 @@ def mve_rounding(H, s, y0, max_rounds: int = 4, ratio: float = 6.0, progress: bo
         for _ in range(max_rounds):
             Hl = H @ L
             sl = s - H @ shift
-            c, E2, ok, its = solve(Hl, sl, np.zeros(d), callback=show)
+            c, E2, ok, its = _round(solve, Hl, sl, show)
             info["iterations"].append(int(its) + 1)
-            if not np.all(sl - Hl @ c > 0):
+            ev, V = _eigen(E2)
+            clear = clearance(Hl, sl, c, E2, ev)
+            if not clear >= config.ROUNDING_MIN_CLEARANCE:
                 # an unconverged interior point whose centre drifted onto a facet (size
-                # study, n = 400, mu = 0.01, seed 3, dim 189: 119 iterations, slack -3e-19):
-                # keep the rounds before it; a first round is redone by John's ellipsoid
+                # study, n = 400, mu = 0.01, seed 3, dim 189: 119 iterations, slack -3e-19
+                # or +3e-19 with the BLAS thread count; accepted at +3e-19, the next round
+                # started on the facet and its ellipsoid was indefinite): keep the rounds
+                # before it; a first round is redone by John's ellipsoid
                 info["rejected_round"] = info["rounds"] + 1
+                info["rejected_clearance"] = float(clear)
                 if info["rounds"] == 0 and method == "mve":
                     bar.close()
                     shift, L, john = mve_rounding(H, s, y0, max_rounds, ratio, progress, "john")
                     return shift, L, {**john, "fallback_from": info}
                 break
-            info, shift, L, r = _next_round(info, shift, L, c, E2, ok)
+            r = float(np.sqrt(ev.max() / ev.min()))
+            info["rounds"] += 1
+            info["axis_ratio"].append(r)
+            info["converged"].append(bool(ok))
+            shift, L = shift + L @ c, L @ (V * np.sqrt(ev))
             if r < ratio or (method == "john" and not ok):
                 break      # round; or John's iteration used its budget: another round
                            # would continue the same iteration (warm weights), not fix it
     return shift, L, info
 
 
-def _next_round(info, shift, L, c, E2, ok):
-    """Record one round's ellipsoid and compose the map: (info, shift, L, axis ratio)."""
-    ev, V = np.linalg.eigh(E2)
-    if ev.min() <= 0:
-        raise NumericalError("MVE rounding: ellipsoid not positive definite")
-    r = float(np.sqrt(ev.max() / ev.min()))
-    info["rounds"] += 1
-    info["axis_ratio"].append(r)
-    info["converged"].append(bool(ok))
-    return info, shift + L @ c, L @ (V * np.sqrt(ev)), r
+def _round(solve, Hl, sl, show):
+    """One round's ellipsoid (c, E2, converged, iterations); a round whose linear algebra
+    broke down (a singular or non-finite system) comes back as E2 = NaN, i.e. rejected."""
+    d = Hl.shape[1]
+    try:
+        c, E2, ok, its = solve(Hl, sl, np.zeros(d), callback=show)
+    except (np.linalg.LinAlgError, NumericalError, FloatingPointError):
+        return np.zeros(d), np.full((d, d), np.nan), False, 0
+    return c, 0.5 * (E2 + E2.T), ok, its
+
+
+def _eigen(E2):
+    """Eigenvalues (ascending) and vectors of the symmetric E2; NaN values when E2 is not
+    finite."""
+    if not np.all(np.isfinite(E2)):
+        return np.full(E2.shape[0], np.nan), np.eye(E2.shape[0])
+    return np.linalg.eigh(E2)
+
+
+def clearance(H, s, c, E2, ev=None) -> float:
+    """The largest t with the ellipsoid {c + t E2^{1/2} u : |u| <= 1} inside {H y <= s}:
+    min_i (s_i - H_i c) / |E2^{1/2} H_i|. 1 for an inscribed ellipsoid that touches a facet
+    (the MVE at convergence), 0 when the centre is not strictly inside or E2 is not
+    positive definite (``ev``: its eigenvalues, if known; relative floor d eps)."""
+    ev = np.linalg.eigvalsh(E2) if ev is None else ev
+    if not (np.all(np.isfinite(ev)) and np.all(np.isfinite(c))) or \
+            ev.min() <= E2.shape[0] * np.finfo(float).eps * ev.max():
+        return 0.0
+    slack = s - H @ c
+    h = np.sqrt(np.maximum(((H @ E2) * H).sum(1), 0.0))
+    if not np.all(slack > 0):
+        return 0.0
+    return float(np.min(slack / np.maximum(h, np.finfo(float).tiny)))
 
 
 # ----------------------------------------------------------------------------
