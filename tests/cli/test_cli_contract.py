@@ -44,3 +44,27 @@ def test_json_is_strict_nan_and_inf_become_null(capsys):
     assert "NaN" not in out and "Infinity" not in out
     assert json.loads(out) == {"a": None, "b": [1.0, None], "c": 2.5, "d": 3,
                                "e": [None, {"f": None}], "g": None}
+
+
+def test_commands_run_with_one_blas_thread_unless_the_environment_sets_a_count(monkeypatch):
+    """The same command gives the same numbers whatever the machine's core count (the MVE
+    rounding's branch once followed the sign of a 1e-19 slack that flipped with it), and
+    an explicit OMP_NUM_THREADS is honoured."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    def blas_threads_in_command():
+        seen = []
+        parser = cli.build_parser
+        try:
+            cli.build_parser = lambda: _FakeParser(lambda args: seen.append(
+                {i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}))
+            assert cli.main([]) == 0
+        finally:
+            cli.build_parser = parser
+        return seen[0]
+    for v in cli.BLAS_THREAD_VARIABLES:
+        monkeypatch.delenv(v, raising=False)
+    with threadpool_limits(limits=2, user_api="blas"):
+        assert blas_threads_in_command() == {1}
+        monkeypatch.setenv("OMP_NUM_THREADS", "2")
+        assert blas_threads_in_command() == {2}

@@ -19,10 +19,16 @@ imports them. Every command returns an exit code, one line on stderr and no trac
 
 A plug-in's error reaches the user the same way: a ForcespaceError subclass whose
 ``exit_code`` and ``kind`` say how.
+
+Every command runs with one BLAS thread unless the environment sets a count
+(``BLAS_THREAD_VARIABLES``): the same command then gives the same numbers on every
+machine, and a loaded one does not slow threaded BLAS down many times over (README,
+"BLAS threads").
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import sys
@@ -35,6 +41,10 @@ from .printing import print_json, print_result  # noqa: F401 (the commands' prin
 EXIT_INPUT = ForcespaceError.exit_code              # 2
 EXIT_NOT_CONVERGED = NumericalError.exit_code       # 3
 EXIT_CLUSTER = 4                                    # the studies' ClusterError
+# environment variables that set the BLAS/OpenMP thread count; with none of them set the
+# commands run with one BLAS thread
+BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+                         "BLIS_NUM_THREADS")
 
 BUILTIN = ("forcespace.cli.packing", "forcespace.cli.space", "forcespace.cli.scene", "forcespace.cli.viewers",
            "forcespace.cli.measured")
@@ -63,11 +73,21 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def blas_threads():
+    """A context with one BLAS thread, unless the environment sets a thread count
+    (then nothing changes)."""
+    if any(os.environ.get(v, "").strip() for v in BLAS_THREAD_VARIABLES):
+        return contextlib.nullcontext()
+    from threadpoolctl import threadpool_limits
+    return threadpool_limits(limits=1)
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        with blas_threads():
+            return int(args.func(args) or 0)
     except ForcespaceError as exc:      # InputError 2, NumericalError 3, ClusterError 4
         print(f"forcespace {args.command}: {exc.kind}: {exc}", file=sys.stderr)
         return exc.exit_code
