@@ -297,3 +297,23 @@ def test_a_target_ess_run_rerun_killed_or_interrupted_resumes_to_the_straight_ru
         resumed = cls(n=100_000, seed=1, **kw).compute(prob, output=out)
         assert resumed.message == straight.message
         assert np.array_equal(read_ensemble(out).samples, X)
+
+
+@pytest.mark.parametrize("sampler", ["hit-and-run", "billiard", "relax"])
+def test_every_sampler_on_a_determinate_S_gives_its_one_point(tmp_path, sampler):
+    """The frictionless paper packing's slice (dim S = 0): every sample is the jammed
+    network, eta = 0, in memory and through a file, from the API and the CLI (the
+    billiard walk ended in "cannot reshape array of size 0" after writing its samples)."""
+    import forcespace as fs
+    from forcespace.sampling.billiard import BilliardWalk
+    from paths import DATA
+    prob = fs.slice_problem(fs.read_packing(DATA / "paper_mu0_seed2.h5"), 28.0)
+    cls = {"hit-and-run": HitAndRun, "billiard": BilliardWalk, "relax": RelaxWalk}[sampler]
+    for out in (None, tmp_path / "e.h5"):
+        run = cls(12, seed=1).compute(prob, output=out)
+        assert run.success and run.ensemble.n_samples == 12
+        assert run.ensemble.eta < 1e-8
+        assert np.abs(run.ensemble.samples - prob.x_jammed).max() < 1e-6 * prob.force_scale
+    assert main(["sample", str(DATA / "paper_mu0_seed2.h5"), "--slice", "28", "--sampler",
+                 sampler, "-n", "12", "-o", str(tmp_path / "c.h5"), "--quiet"]) == 0
+    assert read_ensemble(tmp_path / "c.h5").eta < 1e-8
