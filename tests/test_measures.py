@@ -72,7 +72,7 @@ def test_cli_analyze_sample_ensemble(tmp_path, capsys):
     assert main(["analyze", str(pack), "--full", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     for k in ("n_interior", "n_contacts", "degree_of_indeterminacy", "dim_S", "bounded",
-              "feasible", "n_sliding", "n_domains", "n_elementary_clusters"):
+              "feasible", "n_sliding", "n_domains", "n_domains_of_dim_1"):
         assert k in out
     assert out["n_interior"] == 6 and out["feasible"] and out["bounded"]
     assert out["degree_of_indeterminacy"] == 2 * out["n_contacts"] - 3 * 6

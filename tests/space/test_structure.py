@@ -69,6 +69,12 @@ def test_draw_difference_and_analyze_clusters_cli(tmp_path, capsys):
     cl = out["clusters"]
     assert sum(cl["domain_dims"]) == out["dim_S"] and cl["n_clusters"] == out["dim_S"]
     assert cl["density_rho"] == pytest.approx(cl["n_elementary"] / out["n_interior"])
+    # one name per count (the top level said "n_elementary_clusters": 0 for what is the
+    # number of one-dimensional domains, beside clusters.n_elementary = 10 on the mu = 0.1
+    # slice): the domains of dim 1 are elementary clusters, others lie in larger domains
+    assert "n_elementary_clusters" not in out and out["domain_dims"] == cl["domain_dims"]
+    assert out["n_domains_of_dim_1"] == cl["domain_dims"].count(1) <= cl["n_elementary"]
+    assert "n_domains_of_dim_1" in out["domains_convention"]
     fig = tmp_path / "fig2.png"
     assert main(["draw", str(src), "--difference", "--slice", "28", "-o", str(fig)]) == 0
     assert fig.is_file() and fig.with_suffix(".pdf").is_file()

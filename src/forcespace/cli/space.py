@@ -8,6 +8,11 @@ import time
 
 MU_MAX = 1e6          # as the scene's physics.mu
 SEED_MAX = 2 ** 63 - 1    # numpy takes any integer >= 0; files store int64
+DOMAINS_CONVENTION = (
+    "a domain: contacts whose forces vary together, independently of every other contact "
+    "(domain_dims: its degrees of freedom); n_domains_of_dim_1: domains that are one "
+    "elementary cluster; clusters.n_elementary (--clusters): every elementary cluster (a "
+    "self-stress of one degree of freedom), also those inside larger domains")
 
 
 def check_problem_args(mu=None, gap_tol=float("inf"), slice_height=None) -> None:
@@ -89,6 +94,7 @@ def cmd_analyze(args) -> int:
     out["jammed_violation"] = problem.violation(problem.x_jammed)
     out["rattler_convention"] = ("a disk with no force-bearing contact (carries no load); "
                                  "rattlers and all their contacts dropped")
+    out["domains_convention"] = DOMAINS_CONVENTION
     if args.ranges and S.fn_range is not None:
         out["fn_range"] = S.fn_range
         out["ft_range"] = S.ft_range

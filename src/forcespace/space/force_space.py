@@ -270,7 +270,10 @@ class ForceSpace(Computed):
         if r.get("feasible") and r.get("dim") is not None and not self._status:
             doms = self.domains
             d.update({"n_domains": len(doms), "domain_dims": [g.dim for g in doms],
-                      "n_elementary_clusters": int(sum(g.elementary for g in doms)),
+                      # a domain of dimension 1 is one elementary cluster that shares no
+                      # contact with another; elementary clusters inside larger domains
+                      # are counted by the cluster decomposition (analyze --clusters)
+                      "n_domains_of_dim_1": int(sum(g.elementary for g in doms)),
                       "n_varying_contacts": int(self.varying_contacts.size),
                       # directions of S along which no contact force changes by more
                       # than config.VARY_TOL <Fn>
