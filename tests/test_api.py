@@ -1,4 +1,5 @@
 """The Python API: the README example runs as written; compute objects and results."""
+import dataclasses
 import re
 import subprocess
 import sys
@@ -129,3 +130,47 @@ def test_bring_your_own_packing_example_runs_as_written(tmp_path):
     out = r.stdout.splitlines()
     assert out[0].startswith("S empty:") and "dim S =" in out[0]
     assert len(out) > 50                        # one line per region contact
+
+
+def test_the_api_checks_what_it_is_handed_at_its_door():
+    """Misuses that drew or answered without a word (issue 47): another packing's ensemble
+    drawn onto the wrong contacts, plot values of the wrong length, a "section" along
+    identical or zero directions, a problem whose mu was set to NaN after building (dim S
+    9 where it is 6, samples without Coulomb cones), wrong shapes that reached numpy deep
+    inside. Each is one InputError naming the field."""
+    from ensemble_cases import grooves, pyramid
+    from forcespace import measures
+    p, prob = pyramid(3, 0.6)
+    g, gprob = grooves([np.pi / 6, np.pi / 5], 0.3)
+    ens = fs.HitAndRun(n=8, seed=1).compute(gprob).ensemble
+    S = fs.ForceSpace().compute(prob)
+    m2, d = prob.n_columns, S.affine_basis[:, :1]
+    misuses = {
+        "packing": lambda: ens.plot(p),                       # the grooves' ensemble
+        "sample": lambda: ens.plot(g, sample=8),
+        "values": lambda: p.plot(values=np.ones(p.n_contacts - 1)),
+        "directions": lambda: fs.Section(n=5).compute(prob, directions=np.hstack([d, d])),
+        "x0": lambda: fs.Section(n=5).compute(prob, x0=np.zeros(m2 + 2)),
+        "x": lambda: S.contains(np.zeros(3)),
+        "x1": lambda: measures.difference_field(p, prob, np.ones(3), np.ones(m2)),
+    }
+    for field, call in misuses.items():
+        with pytest.raises(fs.InputError, match=rf"\b{field}\b"):
+            call()
+    with pytest.raises(fs.InputError, match=r"\bdirections\b"):
+        fs.Section(n=5).compute(prob, directions=np.zeros((m2, 2)))
+    with pytest.raises(fs.InputError, match=r"\bx0\b"):
+        measures.distance_from_centre(ens.samples, np.zeros(3))
+    assert ens.plot(g) is not None and ens.plot(g, sample=-1) is not None   # its own: drawn
+    dim = S.dim
+    prob.mu[:] = np.nan                                       # set after building
+    for compute in (fs.ForceSpace().compute, fs.HitAndRun(n=4).compute,
+                    fs.BilliardWalk(n=4).compute, fs.RelaxWalk(n=4).compute):
+        with pytest.raises(fs.InputError, match=r"\bmu\b.*NaN"):
+            compute(prob)
+    prob.mu[:] = 0.6                                          # restored in place: S again
+    assert fs.ForceSpace().compute(prob).dim == dim
+    prob.mu[:] = 0.0                               # changed in place: the S of that mu
+    fresh = dataclasses.replace(prob, mu=np.zeros(prob.n_contacts))
+    assert fs.ForceSpace().compute(prob).summary() == fs.ForceSpace().compute(fresh).summary()
+    assert fs.ForceSpace().compute(prob).summary() != S.summary()

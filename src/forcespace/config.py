@@ -138,6 +138,15 @@ LEWIS_CENTRED = 1e-6        # [1] half the squared Newton decrement at which the
 MAX_GRAM_BYTES = 4e9        # [bytes] largest Gram matrix K = H H^T the billiard walk keeps
                             # (p <= ~22 000 rows); above, rows of K are computed per reflection
 MVE_MAX_ROWS = 1500         # [rows] above: John (Lewis-weight) rounding, not the exact MVE
+# ---- sampler option limits (a run past them would not end in any useful time: refused
+# before any work, as -n 1e20 or --thin 1e12 ran until killed)
+MAX_SAMPLES = 10 ** 8       # [samples] -n of any sampler (the studies draw <= 10^5)
+MAX_CHAINS = 10 ** 4        # [chains] (the defaults: 4, relax 1)
+MAX_HAR_THIN = 10 ** 9      # [steps] hit-and-run steps between samples (default dim S^2:
+                            # 3e6 at dim 1714); ~10^4 s per sample at the 5000-disk slice
+MAX_HAR_BURN_IN = 10 ** 10  # [steps] hit-and-run burn-in per chain (default 10 dim S^2)
+MAX_BILLIARD_THIN = 10 ** 6     # [trajectories] between billiard samples (default 1)
+MAX_BILLIARD_BURN_IN = 10 ** 7  # [trajectories] billiard burn-in per chain (default 50)
 RELAX_STALL_SWEEPS = 20_000  # [sweeps] relax walk: no 1 % progress in this many is a stall
 RHAT_MAX = 1.05             # [1] chains whose split R-hat (rank-normalised, folded) exceeds
                             # this on any tracked statistic have not mixed

@@ -36,10 +36,35 @@ class NumericalError(ForcespaceError):
     kind = "not converged"
 
 
-def require_int(source, field, value, minimum: int, meaning: str = ""):
-    """``value`` as an int if it is an integer >= ``minimum``, else InputError."""
+def require_int(source, field, value, minimum: int, meaning: str = "",
+                maximum: int | None = None):
+    """``value`` as an int if it is an integer in [``minimum``, ``maximum``] (no upper
+    limit when None), else InputError."""
     import numbers
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise InputError(source, field, f"must be an integer >= {minimum}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum \
+            or (maximum is not None and value > maximum):
+        allowed = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum:.0e}]" \
+            if maximum >= 10 ** 6 else f"in [{minimum}, {maximum}]"
+        raise InputError(source, field, f"must be an integer {allowed}"
                          + (f" ({meaning})" if meaning else ""), got=value)
     return int(value)
+
+
+def require_array(source, field, value, shape: tuple, meaning: str = ""):
+    """``value`` as a float array of ``shape`` (None entries: any length) with finite
+    entries, else InputError naming the expected shape (a door check: a wrong shape
+    otherwise surfaces as a numpy broadcast error deep inside, or draws the wrong thing)."""
+    import numpy as np
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        a = None
+    want = "(" + ", ".join("k" if s is None else str(s) for s in shape) + \
+        ("," if len(shape) == 1 else "") + ")"
+    what = f"must be a finite float array of shape {want}" + (f" ({meaning})" if meaning else "")
+    if a is None or a.ndim != len(shape) or any(s is not None and s != g
+                                                 for s, g in zip(shape, a.shape)):
+        raise InputError(source, field, what, got=None if a is None else a.shape)
+    if not np.all(np.isfinite(a)):
+        raise InputError(source, field, what + "; found NaN or inf")
+    return a

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import config
-from .errors import InputError
+from .errors import InputError, require_array
 
 
 def _check(samples):
@@ -62,9 +62,11 @@ def distance_from_centre(samples, x0):
     state) from the centre [F0], and the mean sample distance lbar.
     """
     X = _check(samples)
+    x0 = require_array("distance_from_centre", "x0", x0, (X.shape[1],),
+                       "a network in the samples' columns [F0]")
     c = X.mean(0)
     ell = np.linalg.norm(X - c, axis=1)
-    l0 = float(np.linalg.norm(np.asarray(x0, float) - c))
+    l0 = float(np.linalg.norm(x0 - c))
     return ell, l0, float(ell.mean())
 
 
@@ -77,9 +79,10 @@ def difference_field(packing, problem, x1, x2) -> dict:
     ``dfn``, ``dft`` (m,) the differences x2 - x1 [F0] and ``dF`` (m, 2) the
     force difference vector on b [F0].
     """
-    x1 = np.asarray(x1, float)
-    x2 = np.asarray(x2, float)
     k = problem.contacts
+    x1, x2 = (require_array("difference_field", name, x, (problem.n_columns,),
+                            "a network of the problem [F0]")
+              for name, x in (("x1", x1), ("x2", x2)))
     dx = x2 - x1
     dfn, dft = dx[0::2], dx[1::2]
     n = packing.normal[k]

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .errors import InputError, require_array
 from .io.figures import save_figure
 
 if TYPE_CHECKING:      # annotations only: figures never import the model
@@ -100,14 +101,16 @@ def draw_walls(ax, p: Packing) -> None:
 
 def plot_packing(p: Packing, ax=None, values=None, signed: bool = False,
                  highlight=None, title: str | None = None, legend: bool = True,
-                 scale: float | None = None, quantity: str = r"|f_n|"):
+                 scale: float | None = None, quantity: str = r"|f_n|", spread=None):
     """Draw disks and a force network on ``ax`` (a new one if None); returns the Axes.
 
     ``values`` (Nc,) per packing contact (default fn [F0]); line width is
     proportional to |value| (``scale``: the value drawn STYLE["max_width"] wide, default
     the largest). ``signed=True`` colours positive red and negative blue (the difference
     of two admissible networks). ``highlight``: list of disk-index arrays (e.g.
-    indeterminacy domains), each outlined in its own colour. Rattlers are drawn pale;
+    indeterminacy domains), each outlined in its own colour. ``spread`` (Nc,) [F0]: each
+    line coloured by it (an ensemble's standard deviation over the samples; NaN: not
+    sampled, grey), with a colour bar. Rattlers are drawn pale;
     plates and side walls solid, periodic boundaries dotted. ``legend``: the force-width
     (and colour) legend above the Axes.
     """
@@ -115,6 +118,9 @@ def plot_packing(p: Packing, ax=None, values=None, signed: bool = False,
     from matplotlib.patches import Circle, Patch
 
     ax = new_axes(p) if ax is None else ax
+    if values is not None:          # a wrong-length vector drew anyway (issue 47)
+        values = require_array("plot", "values", values, (p.n_contacts,),
+                               "one value per contact of the packing")
     seg, val = p.branch_segments(values)
     val = np.asarray(val, float)
     shifts = [-1, 0, 1] if p.periodic_x else [0]
@@ -127,6 +133,8 @@ def plot_packing(p: Packing, ax=None, values=None, signed: bool = False,
     widths, scale = force_widths(val, scale)
     colors = np.where((val >= 0)[:, None], [STYLE["increase"]], [STYLE["decrease"]]) \
         if signed else STYLE["force"]
+    if spread is not None:
+        colors = spread_colours(ax, p, spread)
     for s in shifts:
         ax.add_collection(LineCollection(seg + np.array([s * p.width, 0]), linewidths=widths,
                                          colors=colors, capstyle="round"))
@@ -152,6 +160,28 @@ def plot_packing(p: Packing, ax=None, values=None, signed: bool = False,
                            f"$z = {p.coordination():.3f}$"), pad=52 if legend else 6,
                  fontsize=10)
     return ax
+
+
+def spread_colours(ax, p: Packing, spread):
+    """RGBA (Nc, 4) of each contact's ``spread`` (Nc,) >= 0 [F0] (NaN: grey, not sampled)
+    on a sequential colour map, and its colour bar beside ``ax``."""
+    from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    s = np.asarray(spread, float)
+    if s.shape != (p.n_contacts,) or np.any(s[np.isfinite(s)] < 0):
+        require_array("plot", "spread", np.where(np.isfinite(s), s, 0.0), (p.n_contacts,),
+                      "one standard deviation >= 0 [F0] per contact (NaN: not sampled)")
+        raise InputError("plot", "spread", "must be >= 0 [F0] (a standard deviation)",
+                         got=float(np.nanmin(s)))
+    top = float(np.nanmax(s, initial=0.0)) if np.isfinite(s).any() else 1.0
+    sm = ScalarMappable(Normalize(0.0, top if top > 0 else 1.0), colormaps["plasma_r"])
+    rgba = sm.to_rgba(np.where(np.isfinite(s), s, 0.0))
+    rgba[~np.isfinite(s)] = (0.6, 0.6, 0.6, 1.0)
+    ax.figure.colorbar(sm, ax=ax, shrink=0.6, pad=0.02,
+                       label=r"s.d. of $f_n$ over the samples [$F_0$] (grey: not sampled)")
+    return rgba
 
 
 def outline(ax, p: Packing, disks, colour, linestyle="-", linewidth=1.6):

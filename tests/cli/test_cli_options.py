@@ -82,3 +82,26 @@ def test_the_deck_never_holds_a_number_that_is_not_finite(tmp_path):
     with pytest.raises(NumericalError, match="came out inf"):
         liggghts._fmt(float("inf"))
     assert liggghts._fmt(0.1) == "0.1"
+
+
+@pytest.mark.parametrize("sampler, option, value, field", [
+    ("billiard", "-n", "99999999999999999999", "n"),
+    ("hit-and-run", "-n", "99999999999999999999", "n"),
+    ("relax", "-n", "100000001", "n"),
+    ("hit-and-run", "--thin", "1000000000000", "thin"),
+    ("hit-and-run", "--burn-in", "1000000000000", "burn_in"),
+    ("billiard", "--thin", "1000000000000", "thin"),
+    ("billiard", "--burn-in", "1000000000000", "burn_in"),
+    ("billiard", "--chains", "1000000000000", "chains"),
+    ("relax", "--chains", "1000000000000", "chains"),
+])
+def test_sampling_budgets_that_would_run_until_killed_are_refused_at_once(
+        tmp_path, capsys, no_work, sampler, option, value, field):
+    """-n 1e20 or --thin 1e12 ran until killed (issue 47): refused before the packing is
+    read, in one line naming the option and its range."""
+    argv = ["sample", str(PACK), "--sampler", sampler, "-n", "10", "-o",
+            str(tmp_path / "e.h5"), option, value]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"sample: {field} = {value}: must be an integer in [" in err[0]
+    assert list(tmp_path.iterdir()) == []

@@ -114,7 +114,6 @@ def cmd_sample(args) -> int:
     check_seed(args.seed)
     check_problem_args(args.mu, args.gap_tol, args.slice)
     check_output_file(args.output, inputs=[args.packing])
-    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
     common = dict(seed=args.seed, progress=not args.quiet,
                   checkpoint_every=args.checkpoint_every, target_ess=args.target_ess)
     if args.sampler == "relax":
@@ -128,6 +127,7 @@ def cmd_sample(args) -> int:
         from ..sampling.hit_and_run import HitAndRun
         sampler = HitAndRun(args.n, chains=args.chains, thin=args.thin, burn_in=args.burn_in,
                             direction=args.direction, **common)
+    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
     res = sampler.compute(problem, output=args.output).summary()
     res["output"] = str(args.output)
     if res.get("n_projected"):

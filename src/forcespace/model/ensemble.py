@@ -112,15 +112,45 @@ class Ensemble:
         return {"fn_mean": fn_mean, "ft_mean": ft_mean, "fn_std": fn_std, "ft_std": ft_std,
                 "spread": spread, "sampled": sampled}
 
-    def plot(self, packing, sample: int = -1, ax=None, **kw):
-        """Draw sample ``sample`` (default the last) as the force network of
-        ``packing`` (fixed loads keep their values); returns the Axes."""
+    def check_packing(self, packing, who: str = "Ensemble") -> None:
+        """InputError unless ``packing`` is the one these samples are of: its contacts
+        ``contacts`` exist and carry the jammed forces ``x_jammed`` (another packing's
+        ensemble drew its samples onto the wrong contacts)."""
+        k = self.contacts
+        same = packing.n_contacts > int(k.max(initial=-1)) and packing.n_disks > \
+            int(self.disks.max(initial=-1)) and all(
+                np.allclose(np.asarray(f, float)[k], self.x_jammed[c::2], rtol=1e-9,
+                            atol=1e-12 * self.force_scale) for c, f in enumerate(
+                                (packing.fn, packing.ft)))
+        if not same:
+            raise InputError(who, "packing", "must be the packing the ensemble was sampled "
+                             f"from ({self.attrs.get('packing_file') or 'see its attrs'}): "
+                             "its contacts' jammed forces differ")
+
+    def plot(self, packing, sample: int | None = None, ax=None, **kw):
+        """Draw the ensemble on ``packing`` (its own packing, checked): line width the
+        mean normal force of every sampled contact over the samples, colour its standard
+        deviation (grey: not sampled, e.g. outside the slice); ``sample=k``: sample k
+        alone. Fixed loads keep their values. Returns the Axes."""
+        import numbers
+
         from ..plot import plot_packing
 
+        self.check_packing(packing, "Ensemble.plot")
         fn = np.array(packing.fn, float)
-        ft = np.array(packing.ft, float)
+        if sample is None:
+            fn[self.contacts] = self.forces[:, :, 0].mean(0)
+            spread = np.full_like(fn, np.nan)
+            spread[self.contacts] = self.forces[:, :, 0].std(0)
+            kw.setdefault("title", f"{self.sampler} ensemble of {self.n_samples} samples: "
+                                   r"mean $f_n$ per contact")
+            return plot_packing(packing, ax, values=fn, spread=spread, **kw)
+        k = self.n_samples
+        if isinstance(sample, bool) or not isinstance(sample, numbers.Integral) \
+                or not -k <= sample < k:
+            raise InputError("Ensemble.plot", "sample", f"must be None (the ensemble) or a "
+                             f"sample index in [-{k}, {k - 1}]", got=sample)
         fn[self.contacts] = self.forces[sample, :, 0]
-        ft[self.contacts] = self.forces[sample, :, 1]
         kw.setdefault("title", f"{self.sampler} sample {sample % self.n_samples} of "
                                f"{self.n_samples}")
         return plot_packing(packing, ax, values=fn, **kw)

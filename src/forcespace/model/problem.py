@@ -209,9 +209,32 @@ class StaticsProblem:
         ``NO_TENSION``: ``-fn <= 0`` (mu = 0). Built once per problem (mu and the
         contacts do not change).
         """
-        if self._inequalities is None:
-            self._inequalities = self._build_inequalities()
-        return self._inequalities
+        if self._inequalities is None or not np.array_equal(self._inequalities[3], self.mu):
+            self._inequalities = self._build_inequalities() + (np.array(self.mu, float),)
+        return self._inequalities[:3]
+
+    def check(self, source: str = "problem") -> "StaticsProblem":
+        """The problem itself if its arrays are consistent, else InputError naming the
+        field (what every computation checks at its door: a field set after building,
+        e.g. ``mu`` = NaN, gave an analysis of a wrong S without a word)."""
+        from ..errors import require_array
+        source = self.source or source
+        m, n = self.n_contacts, self.n_interior
+        if not sp.issparse(self.A) or self.A.shape != (3 * n, 2 * m) or \
+                not np.all(np.isfinite(self.A.data)):
+            raise InputError(source, "A", f"must be a sparse ({3 * n}, {2 * m}) matrix of "
+                             "finite numbers (3 rows per interior disk, 2 columns per "
+                             "unknown contact)", got=getattr(self.A, "shape", type(self.A)))
+        require_array(source, "b", self.b, (3 * n,), "the loads, 3 per interior disk [F0]")
+        require_array(source, "x_jammed", self.x_jammed, (2 * m,), "fn, ft per contact [F0]")
+        mu = require_array(source, "mu", self.mu, (m,), "Coulomb coefficient per contact")
+        if mu.size and mu.min() < 0:
+            raise InputError(source, "mu", "must be >= 0 (Coulomb coefficients)",
+                             got=float(mu.min()))
+        if not (np.isfinite(self.force_scale) and self.force_scale > 0):
+            raise InputError(source, "force_scale", "must be a finite number > 0 (<Fn>, "
+                             "the mean normal force) [F0]", got=self.force_scale)
+        return self
 
     def _build_inequalities(self):
         rows, cols, vals, owner, kind = [], [], [], [], []
@@ -494,3 +517,13 @@ def plate_problem(packing: Packing, gap_tol: float = np.inf, source: str = "",
 
 __all__ = ["StaticsProblem", "slice_problem", "full_problem", "plate_problem", "build_problem",
            "problem_for", "TOP"]
+
+
+def checked_problem(problem, who: str) -> StaticsProblem:
+    """``problem`` if it is a consistent :class:`StaticsProblem`, else InputError naming
+    ``who`` (the compute object it was handed to) and what is wrong."""
+    if not isinstance(problem, StaticsProblem):
+        raise InputError(who, "problem", "must be a StaticsProblem (forcespace.slice_problem, "
+                         "full_problem or plate_problem of a packing)",
+                         got=type(problem).__name__)
+    return problem.check()

@@ -319,15 +319,16 @@ def default_params(**kw) -> dict:
 def check_options(n, chains=None, thin=None, burn_in=None, tau_factor=None, length=None,
                   rounding_updates=None, checkpoint_every=1, source="sample") -> None:
     """Refuse meaningless billiard-walk options before any work (InputError)."""
-    require_int(source, "n", n, 1, "number of samples")
+    require_int(source, "n", n, 1, "number of samples", config.MAX_SAMPLES)
     require_int(source, "checkpoint_every", checkpoint_every, 1)
-    for name, value, lo, meaning in (
-            ("chains", chains, 1, "independent chains"),
-            ("thin", thin, 1, "trajectories between samples"),
-            ("burn_in", burn_in, 0, "trajectories per chain before the first sample"),
-            ("rounding_updates", rounding_updates, 0, "Lewis-weight updates")):
+    for name, value, lo, meaning, hi in (
+            ("chains", chains, 1, "independent chains", config.MAX_CHAINS),
+            ("thin", thin, 1, "trajectories between samples", config.MAX_BILLIARD_THIN),
+            ("burn_in", burn_in, 0, "trajectories per chain before the first sample",
+             config.MAX_BILLIARD_BURN_IN),
+            ("rounding_updates", rounding_updates, 0, "Lewis-weight updates", 1000)):
         if value is not None:
-            require_int(source, name, value, lo, meaning)
+            require_int(source, name, value, lo, meaning, hi)
     if tau_factor is not None and not (isinstance(tau_factor, (int, float))
                                        and np.isfinite(tau_factor) and tau_factor > 0):
         raise InputError(source, "tau_factor", "must be a positive number", got=tau_factor)

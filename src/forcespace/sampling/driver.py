@@ -39,6 +39,7 @@ from ..errors import InputError, require_int
 from ..io import ensemble_file as ef
 from ..io.jsonfile import dumps
 from ..io.outputs import check_output_file, output_lock
+from ..model.problem import checked_problem
 from ..progress import progress as progress_bar
 from ..result import Computed
 from .diagnostics import by_chain, converged, diagnostics, summarize, tracked_statistics
@@ -318,8 +319,9 @@ class Sampler(Computed):
         frame_s, rounding_s, burn_in_s (0 when resumed) and sampling_s (the rest)."""
         return self._get("times")
 
-    def plot(self, packing, sample: int = -1, ax=None, **kw):
-        """Draw one sample as the force network of ``packing``; returns the Axes."""
+    def plot(self, packing, sample: int | None = None, ax=None, **kw):
+        """Draw the ensemble (or sample ``sample``) on ``packing``
+        (:meth:`Ensemble.plot`); returns the Axes."""
         return self.ensemble.plot(packing, sample, ax, **kw)
 
     def __repr__(self) -> str:
@@ -362,6 +364,7 @@ class FrameSampler(Sampler):
         """Sample S of ``problem`` (in memory, or into the ensemble file ``output``,
         resumed when it continues this run); ``analysis``: its ForceSpace, if computed."""
         t0, c0 = time.perf_counter(), time.process_time()
+        problem = checked_problem(problem, type(self).__name__)
         walk = self.Walk(problem, self.options, analysis, self.progress)
         stop = TimedStop(self.n, self.max_seconds, self.target_ess, walk.params["chains"],
                          walk.params["seed"])

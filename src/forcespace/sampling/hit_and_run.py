@@ -188,13 +188,15 @@ def check_options(n, chains=None, thin=None, burn_in=None, direction=None,
 
     thin >= 1: with 0 steps between samples every sample would repeat the last.
     """
-    require_int(source, "n", n, 1, "number of samples")
+    require_int(source, "n", n, 1, "number of samples", config.MAX_SAMPLES)
     require_int(source, "checkpoint_every", checkpoint_every, 1)
-    for name, value, lo, meaning in (("chains", chains, 1, "independent chains"),
-                                     ("thin", thin, 1, "steps between samples"),
-                                     ("burn_in", burn_in, 0, "steps per chain before the first")):
+    for name, value, lo, meaning, hi in (
+            ("chains", chains, 1, "independent chains", config.MAX_CHAINS),
+            ("thin", thin, 1, "steps between samples", config.MAX_HAR_THIN),
+            ("burn_in", burn_in, 0, "steps per chain before the first",
+             config.MAX_HAR_BURN_IN)):
         if value is not None:
-            require_int(source, name, value, lo, meaning)
+            require_int(source, name, value, lo, meaning, hi)
     if direction not in (None, "hypersphere", "coordinate"):
         raise InputError(source, "direction", "must be 'hypersphere' or 'coordinate'",
                          got=direction)

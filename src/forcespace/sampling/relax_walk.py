@@ -45,7 +45,7 @@ from .. import config
 from ..engine.frozen import frozen_contacts, relax
 from ..engine.interrupts import InterruptFlag
 from ..errors import InputError, NumericalError, require_int
-from ..model.problem import StaticsProblem
+from ..model.problem import StaticsProblem, checked_problem
 from ..space.questions import check_bounded, check_feasible
 from ..space.projection import Projector, l1_nearest
 from ..streams import chain_generators, restored_generator
@@ -118,7 +118,7 @@ def kick(x, mu, scale, rng):
 
 def check_options(n, tol, checkpoint_every=1, source="sample"):
     """Refuse meaningless sampler options before any work (InputError)."""
-    require_int(source, "n", n, 1, "number of samples")
+    require_int(source, "n", n, 1, "number of samples", config.MAX_SAMPLES)
     require_int(source, "checkpoint_every", checkpoint_every, 1)
     if not (isinstance(tol, (int, float)) and np.isfinite(tol) and 0 < tol < 1):
         raise InputError(source, "tol", "must be a finite number in (0, 1) (violation of S "
@@ -233,7 +233,7 @@ class RelaxWalk(Sampler):
                  max_seconds: float | None = None, checkpoint_every: int = 10,
                  progress: bool = False, chains: int = 1, target_ess: float | None = None):
         check_options(n, tol, checkpoint_every)
-        require_int("sample", "chains", chains, 1, "independent walks")
+        require_int("sample", "chains", chains, 1, "independent walks", config.MAX_CHAINS)
         check_target(target_ess)
         self.n, self.seed, self.tol, self.progress = n, seed, tol, progress
         self.chunk, self.max_sweeps, self.chains = chunk, max_sweeps, chains
@@ -243,6 +243,7 @@ class RelaxWalk(Sampler):
     def compute(self, problem: StaticsProblem, output=None, start=None) -> "RelaxWalk":
         """Walk through S of ``problem`` (refuses an empty or unbounded S)."""
         t0 = time.perf_counter()
+        problem = checked_problem(problem, "RelaxWalk")
         walk = KickRelaxWalk(problem, self.seed, self.tol, self.chunk, self.max_sweeps, start,
                      self.chains)
         feas, _, _ = check_feasible(problem)

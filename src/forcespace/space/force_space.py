@@ -15,9 +15,9 @@ from __future__ import annotations
 import numpy as np
 
 from .. import config
-from ..errors import InputError, NumericalError
+from ..errors import InputError, NumericalError, require_array
 from ..linalg import affine_hull, rank
-from ..model.problem import StaticsProblem
+from ..model.problem import StaticsProblem, checked_problem
 from ..progress import progress as progress_bar
 from ..result import Computed
 from .lp import eq_system, unit_problem
@@ -50,6 +50,7 @@ class ForceSpace(Computed):
 
     def compute(self, problem: StaticsProblem) -> "ForceSpace":
         """Analyse S of ``problem`` (:class:`~forcespace.model.problem.StaticsProblem`)."""
+        problem = checked_problem(problem, "ForceSpace")
         if problem.n_contacts == 0:
             raise InputError(problem.source or "problem", "contacts",
                              "no unknown contact in the problem")
@@ -238,6 +239,8 @@ class ForceSpace(Computed):
     # ---- questions -------------------------------------------------------------
     def contains(self, x, tol: float = config.SAMPLE_VIOLATION) -> bool:
         """Whether x (2m,) [F0] is in S up to ``tol`` <Fn>."""
+        x = require_array("ForceSpace.contains", "x", x, (self.problem.n_columns,),
+                          "a network of the problem [F0]")
         return self.problem.violation(x) <= tol
 
     def distance(self, x):

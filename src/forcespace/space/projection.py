@@ -20,7 +20,7 @@ from scipy.optimize import nnls
 from .. import config
 from ..errors import InputError, NumericalError
 from ..linalg import null_basis, range_basis
-from ..model.problem import StaticsProblem
+from ..model.problem import StaticsProblem, checked_problem
 from .lp import bounds_list, eq_system, solve_lp, unit_problem
 
 
@@ -373,7 +373,7 @@ class Projector:
     """
 
     def __init__(self, problem: StaticsProblem):
-        self.problem = problem
+        self.problem = problem = checked_problem(problem, "distance")
         self._unit, self._scale = unit_problem(problem)
         self._frame: _Frame | None = None
 

@@ -12,12 +12,25 @@ import numpy as np
 from scipy.optimize import linprog
 
 from .. import config
-from ..errors import InputError
+from ..errors import InputError, require_array
 from ..linalg import onto_affine_hull
-from ..model.problem import StaticsProblem
+from ..model.problem import StaticsProblem, checked_problem
 from ..result import Computed
 from ..streams import direction_generator
 from .force_space import ForceSpace
+
+
+def _plane(directions, N):
+    """Orthonormal (2m, 2) basis of the plane of ``directions`` (2m, 2) projected onto the
+    hull span(N); InputError unless the projections span a plane (two directions that
+    are zero, parallel, or normal to S's hull span none)."""
+    P = N @ (N.T @ directions)
+    sv = np.linalg.svd(P, compute_uv=False)
+    if not sv[1] > 1e-8 * max(np.linalg.norm(directions, axis=0).max(), 1e-300):
+        raise InputError("Section", "directions", "must span a plane within S's affine hull "
+                         "(two independent directions; zero, parallel or off-hull ones span "
+                         "none)", got=f"singular values of their projection {sv.tolist()}")
+    return np.linalg.qr(P)[0]
 
 
 class Section(Computed):
@@ -43,6 +56,7 @@ class Section(Computed):
 
     def compute(self, problem: StaticsProblem, x0=None, directions=None,
                 analysis=None) -> "Section":
+        problem = checked_problem(problem, "Section")
         S = analysis if analysis is not None else ForceSpace().compute(problem)
         if not S.success:
             raise InputError(problem.source or "problem", "S", f"not analysed: {S.message}")
@@ -54,14 +68,17 @@ class Section(Computed):
         if N.shape[1] < 2:
             raise InputError(problem.source or "problem", "dim S", "must be >= 2 for a "
                              "cross-section", got=N.shape[1])
-        self._start()
-        x0 = problem.x_jammed if x0 is None else np.asarray(x0, float)
-        x0 = onto_affine_hull(x0, S.affine_point, N)
+        m2 = problem.n_columns
+        x0 = problem.x_jammed if x0 is None else \
+            require_array("Section", "x0", x0, (m2,), "a force network [F0]")
         if directions is None:
             c = direction_generator(self.seed).normal(size=(N.shape[1], 2))
             D = np.linalg.qr(N @ c)[0]
         else:
-            D = np.linalg.qr(N @ (N.T @ np.asarray(directions, float)))[0]
+            D = _plane(require_array("Section", "directions", directions, (m2, 2),
+                                     "two directions of the force space"), N)
+        self._start()
+        x0 = onto_affine_hull(x0, S.affine_point, N)
         self._results.update(_grid(problem, x0, D[:, 0], D[:, 1], self.n, self.margin))
         self._finish(0, "section computed")
         return self

@@ -62,7 +62,7 @@ import scipy.sparse as sp
 
 from .. import config
 from ..errors import InputError, NumericalError
-from ..model.problem import NO_TENSION, StaticsProblem
+from ..model.problem import NO_TENSION, StaticsProblem, checked_problem
 from ..result import Computed
 from .questions import check_feasible
 from .lp import unit_problem
@@ -118,6 +118,7 @@ class Selection(Computed):
 
     def compute(self, problem: StaticsProblem) -> "Selection":
         """Select the network in S of ``problem``."""
+        problem = checked_problem(problem, "Selection")
         kn, kt = _stiffness(problem, self.kn, self.kt_ratio)
         if problem.n_contacts == 0:
             raise InputError(problem.source or "problem", "contacts", "no unknown contact")
