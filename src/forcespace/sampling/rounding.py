@@ -109,16 +109,10 @@ def mve(H, s, y0, maxiter: int = 120, tol: float = 1e-7, minmu: float = 1e-8,
     A = A / slack0[:, None]          # now {A x <= 1}, x = y - y0
     A = A[_live_rows(A)]
     p = A.shape[0]
-    tau0 = 0.75
-    bnrm = np.sqrt(p)
-    x = np.zeros(d)
-    y = np.ones(p)
-    bmAx = np.ones(p)
-    z = np.ones(p)
+    tau0, bnrm = 0.75, np.sqrt(p)
+    x, y, bmAx, z = np.zeros(d), np.ones(p), np.ones(p), np.ones(p)
     astep, Adx = 0.0, np.zeros(p)
-    ok = False
-    it = stalled = 0
-    last_res = np.inf
+    ok, it, stalled, last_res = False, 0, 0, np.inf
     for it in range(maxiter):
         if it > 0:
             bmAx = bmAx - astep * Adx
