@@ -84,6 +84,8 @@ class StaticsProblem:
     source: str = ""
     meta: dict = field(default_factory=dict)
     _inequalities: tuple | None = field(default=None, init=False, repr=False, compare=False)
+    _inequalities_mu: np.ndarray | None = field(default=None, init=False, repr=False,
+                                                compare=False)
 
     def __repr__(self) -> str:
         h = "" if self.height is None else f", height={self.height:g} R"
@@ -209,9 +211,10 @@ class StaticsProblem:
         ``NO_TENSION``: ``-fn <= 0`` (mu = 0). Built once per problem (mu and the
         contacts do not change).
         """
-        if self._inequalities is None or not np.array_equal(self._inequalities[3], self.mu):
-            self._inequalities = self._build_inequalities() + (np.array(self.mu, float),)
-        return self._inequalities[:3]
+        if self._inequalities is None or not np.array_equal(self._inequalities_mu, self.mu):
+            self._inequalities = self._build_inequalities()
+            self._inequalities_mu = np.array(self.mu, float)    # mu changed in place: rebuilt
+        return self._inequalities
 
     def check(self, source: str = "problem") -> "StaticsProblem":
         """The problem itself if its arrays are consistent, else InputError naming the
@@ -220,12 +223,17 @@ class StaticsProblem:
         from ..errors import require_array
         source = self.source or source
         m, n = self.n_contacts, self.n_interior
-        if not sp.issparse(self.A) or self.A.shape != (3 * n, 2 * m) or \
-                not np.all(np.isfinite(self.A.data)):
-            raise InputError(source, "A", f"must be a sparse ({3 * n}, {2 * m}) matrix of "
-                             "finite numbers (3 rows per interior disk, 2 columns per "
-                             "unknown contact)", got=getattr(self.A, "shape", type(self.A)))
-        require_array(source, "b", self.b, (3 * n,), "the loads, 3 per interior disk [F0]")
+        if m == 0:
+            raise InputError(source, "contacts", "no unknown contact in the problem (nothing "
+                             "to analyse or sample)")
+        if not sp.issparse(self.A) or self.A.shape[1] != 2 * m or self.A.shape[0] < 3 * n \
+                or not np.all(np.isfinite(self.A.data)):
+            raise InputError(source, "A", f"must be a sparse matrix of finite numbers with "
+                             f"{2 * m} columns (2 per unknown contact) and >= {3 * n} rows (3 "
+                             "per interior disk, then e.g. a plate's balance)",
+                             got=getattr(self.A, "shape", type(self.A)))
+        require_array(source, "b", self.b, (self.A.shape[0],), "the loads, one per row of A "
+                      "[F0]")
         require_array(source, "x_jammed", self.x_jammed, (2 * m,), "fn, ft per contact [F0]")
         mu = require_array(source, "mu", self.mu, (m,), "Coulomb coefficient per contact")
         if mu.size and mu.min() < 0:
