@@ -21,7 +21,7 @@ def test_readme_example_runs_as_written(tmp_path):
     dim, eta, rhat = re.search(r"dim S = (\d+), eta = (\S+), R-hat = (\S+)", r.stdout).groups()
     assert int(dim) > 0 and float(eta.rstrip(",")) > 1e-4   # an indeterminate slice, sampled
     assert 0.9 < float(rhat) < 1.2
-    assert (tmp_path / "quick_sample.png").stat().st_size > 10_000
+    assert (tmp_path / "quick_ensemble.png").stat().st_size > 10_000
 
 
 def test_help_lists_the_public_api():

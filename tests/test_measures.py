@@ -85,6 +85,30 @@ def test_cli_analyze_sample_ensemble(tmp_path, capsys):
     e = json.loads(capsys.readouterr().out)
     assert e["n_samples"] == 24 and e["sampler"] == "hit-and-run" and e["eta"] > 0
     assert e["max_violation"] <= 1e-9
+    # with its packing: stress and fabric, and the figure. By hand (sum over disks of the
+    # contact arms' a (x) f = the floor contacts' p (x) f + sum_i x_i (x) w_i, floor at y = 0,
+    # overall torque balance): sigma_yy V = -W sum_i y_i = -(6 + 4 sqrt 3) (W = 1 per disk),
+    # sigma_xy = sigma_yx = 0, the same in every network of S; sigma_xx (the floor's
+    # friction) varies over S
+    fig = tmp_path / "e.png"
+    assert main(args[:6] + ["40"] + args[7:]) == 0          # 10 per chain: 5 batches of 2
+    assert main(["ensemble", str(ens), "--packing", str(pack), "-o", str(fig), "--json"]) == 0
+    e = json.loads(capsys.readouterr().out)
+    s = {k: np.array(e["stress"][k]) for k in ("jammed", "min", "max")}
+    for k in s:
+        assert s[k][1, 1] == pytest.approx(-(6 + 4 * np.sqrt(3)) / e["area_R2"], rel=1e-12)
+        assert np.abs(s[k][[0, 1], [1, 0]]).max() < 1e-15
+    assert s["max"][0, 0] - s["min"][0, 0] > 1e-4
+    assert np.trace(e["fabric"]["jammed"]) == pytest.approx(1.0)
+    ci, pf = e["eta_interval"], e["force_distribution"]
+    assert ci["low"] < e["eta"] < ci["high"] and ci["batches"] == 20    # 4 chains x 5
+    assert pf["mean_f_jammed"] == pytest.approx(1.0)                    # f = fn / <Fn>
+    for P in (pf["ensemble"], pf["jammed"]):                            # densities
+        assert np.dot(P, np.diff(pf["edges"])) == pytest.approx(1.0)
+    assert fig.stat().st_size > 10_000 and fig.with_suffix(".pdf").exists()
+    other, _ = pyramid(4, 0.6)
+    write_packing(other, tmp_path / "other.h5")
+    assert main(["ensemble", str(ens), "--packing", str(tmp_path / "other.h5")]) == 2
     # a pyramid on a floor is a mechanism (its base can roll apart): after a kick the
     # Gauss-Seidel relaxation settles on a moving solution; the walk finishes those
     # samples by the exact projection onto S, counts them, and every sample is in S
@@ -158,3 +182,73 @@ def test_rearrangement_is_the_connected_displaced_region():
     assert not measures.rearrangement_depth(p, 9, d, floor_layer=1.0).reaches_floor
     with pytest.raises(InputError):
         measures.rearrangement_depth(p, 9, np.zeros(3))
+
+
+def _paper_problems():
+    import forcespace as fs
+    from paths import PACKINGS
+    p = fs.read_packing(PACKINGS / "paper_mu0.1.h5")
+    return p, fs.full_problem(p), fs.slice_problem(p, 28.0)
+
+
+def test_stress_tensor_of_the_paper_box_is_its_load_and_the_same_across_S():
+    """sigma = (1/V) sum a (x) f over the disks: in the plate-loaded box (zero gravity) the
+    vertical stress is the top load per width, -top_force / width, and torque balance
+    makes sigma symmetric. Every network of S carries the same loads, so sigma_yy and
+    sigma_xy are the same at the Chebyshev centre as in the jammed network (1e-10); the
+    lateral stress sigma_xx is not (periodic x: no wall sets it) and changes."""
+    p, full, sl = _paper_problems()
+    for prob in (full, sl):
+        area = measures.region_area(p, prob)
+        arms, F, n, fn = measures.network_arms_and_forces(p, prob, prob.x_jammed)
+        assert np.abs(np.linalg.norm(arms, axis=1) - 1.5).max() <= 0.5 + 1e-6   # radii in [1, 2]
+        sigma = measures.stress_tensor(arms, F, area)
+        assert sigma[0, 1] == pytest.approx(sigma[1, 0], abs=1e-9 * np.abs(sigma).max())
+        centre = ForceSpace().compute(prob).centre
+        other = measures.stress_tensor(*measures.network_arms_and_forces(p, prob, centre)[:2],
+                                       area)
+        assert np.abs(other[1] - sigma[1]).max() < 1e-10 and abs(other[0, 0] - sigma[0, 0]) > 1e-6
+    sigma = measures.stress_tensor(*measures.network_arms_and_forces(p, full, full.x_jammed)[:2],
+                                   measures.region_area(p, full))
+    assert sigma[1, 1] == pytest.approx(-p.top_force / p.width, rel=1e-6)   # overlaps 2e-7 R
+
+
+def test_fabric_tensor_and_force_distribution_by_hand():
+    n = np.array([[1.0, 0.0], [0.0, 1.0]])
+    assert np.allclose(measures.fabric_tensor(n), np.eye(2) / 2)
+    th = np.array([0.0, 2 * np.pi / 3, 4 * np.pi / 3])            # three-fold: isotropic
+    assert np.allclose(measures.fabric_tensor(np.c_[np.cos(th), np.sin(th)]), np.eye(2) / 2)
+    assert np.allclose(measures.fabric_tensor(n, [3.0, 1.0]), np.diag([0.75, 0.25]))
+    fn = np.random.default_rng(1).exponential(2.0, 20000)          # <Fn> = 2: P(f) = e^-f
+    edges = np.linspace(0, 3, 16)
+    P = measures.force_pdf(fn, 2.0, edges)
+    assert np.allclose(P, np.histogram(fn / 2.0, edges)[0] / (fn.size * np.diff(edges)))
+    mid = 0.5 * (edges[1:] + edges[:-1])
+    assert np.abs(P - np.exp(-mid)).max() < 0.05
+    with pytest.raises(InputError, match="edges"):
+        measures.force_pdf(fn, 2.0, [1.0, 0.5])
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.6])
+def test_eta_interval_covers_the_true_eta(rho):
+    """m contacts with fn_i = 1 + a_i u_i, u_i uniform on [-1, 1] (stationary law), ft = 0:
+    dF_i = a_i / sqrt(3), |F_i| = 1, so eta = mean(a) / sqrt(3) exactly. 4 chains of 100
+    draws, independent (rho = 0) or AR(1)-correlated (rho = 0.6, through a Gaussian copula
+    that keeps the uniform law): the 95 % interval covers the true eta in >= 88 % of 200
+    runs (batch means absorb the correlation; a naive iid interval would not)."""
+    from scipy.stats import norm
+    rng = np.random.default_rng(7)
+    a = np.linspace(0.1, 0.5, 6)
+    true = a.mean() / np.sqrt(3)
+    hits = 0
+    for _ in range(200):
+        z = np.empty((4, 100, a.size))
+        z[:, 0] = rng.standard_normal((4, a.size))
+        for t in range(1, 100):
+            z[:, t] = rho * z[:, t - 1] + np.sqrt(1 - rho ** 2) * rng.standard_normal((4, a.size))
+        u = 2 * norm.cdf(z) - 1
+        X = np.zeros((400, 2 * a.size))
+        X[:, 0::2] = (1 + a * u).reshape(400, a.size)
+        ci = measures.eta_interval(X, np.repeat(np.arange(4), 100))
+        hits += ci["low"] <= true <= ci["high"]
+    assert 0.88 * 200 <= hits <= 200

@@ -177,3 +177,117 @@ def rearrangement_depth(packing, disk: int, displacement, threshold: float | Non
     gap = float((y[region] - r[region]).min() - packing.y_bottom) \
         if np.isfinite(packing.y_bottom) else float("nan")
     return Rearrangement(region, depth, gap, bool(gap < floor_layer), displaced)
+
+
+# ----------------------------------------------------------------------------
+# observables of force-network ensembles (issue 47 item 11)
+# ----------------------------------------------------------------------------
+def force_pdf(fn, scale: float, edges) -> np.ndarray:
+    """P(f): probability density (len(edges) - 1,) of f = fn / ``scale`` over the bins
+    ``edges`` (ascending, in units of ``scale``); fn: any array of normal forces [F0]
+    (e.g. all contacts of all samples), ``scale`` the mean normal force <Fn> [F0]. Forces
+    beyond the last edge count in the normalisation (the density integrates to the
+    fraction inside the bins)."""
+    f = np.asarray(fn, float).ravel() / float(scale)
+    e = require_array("force_pdf", "edges", edges, (None,), "bin edges in units of <Fn>")
+    if f.size == 0 or e.size < 2 or np.any(np.diff(e) <= 0):
+        raise InputError("force_pdf", "edges", "must be >= 2 ascending bin edges, with forces",
+                         got=e.size)
+    counts, _ = np.histogram(f, bins=e)
+    return counts / (f.size * np.diff(e))
+
+
+def stress_tensor(arms, forces, area: float) -> np.ndarray:
+    """Cauchy stress (2, 2) [F0/R] of a set of disks: sigma = (1/V) sum_c a_c (x) f_c over
+    every contact c of every disk, a_c (k, 2) [R] from the disk's centre to the contact
+    point, f_c (k, 2) [F0] the force on that disk, V = ``area`` [R^2] of the region
+    (2-D: force per length). Compression is negative; symmetric when every disk is in
+    torque balance."""
+    a = require_array("stress_tensor", "arms", arms, (None, 2), "[R]")
+    f = require_array("stress_tensor", "forces", forces, (a.shape[0], 2), "[F0]")
+    if not (np.isfinite(area) and area > 0):
+        raise InputError("stress_tensor", "area", "must be a finite number > 0 [R^2]", got=area)
+    return a.T @ f / float(area)
+
+
+def fabric_tensor(normals, weights=None) -> np.ndarray:
+    """Fabric tensor (2, 2) [1]: sum_c w_c n_c (x) n_c / sum_c w_c over contacts c with unit
+    normals ``normals`` (k, 2); ``weights`` (k,) >= 0 (default 1: the geometric fabric;
+    fn: the force-weighted one). Trace 1; isotropic: diag(1/2, 1/2)."""
+    n = require_array("fabric_tensor", "normals", normals, (None, 2), "unit vectors")
+    w = np.ones(n.shape[0]) if weights is None else \
+        require_array("fabric_tensor", "weights", weights, (n.shape[0],), ">= 0")
+    if n.shape[0] == 0 or w.min() < 0 or w.sum() <= 0:
+        raise InputError("fabric_tensor", "weights", "must be >= 0 with a positive sum, "
+                         "over at least one contact", got=n.shape[0])
+    return (n * w[:, None]).T @ n / w.sum()
+
+
+def network_arms_and_forces(packing, problem, x):
+    """Per contact end on an interior disk of ``problem``: (arms (k, 2) [R], forces (k, 2)
+    [F0] on the disk, normals (k, 2), fn (k,)) for the network x (2m,) [F0] (unknown
+    contacts) with the loads at the packing's values: the input of
+    :func:`stress_tensor`. Force on body b: fn n + ft t with t = (-n_y, n_x); on a: minus
+    that. Periodic x: the arm is the minimum image of point - centre."""
+    x = require_array("network_arms_and_forces", "x", x, (problem.n_columns,), "[F0]")
+    fn, ft = np.array(packing.fn, float), np.array(packing.ft, float)
+    fn[problem.contacts], ft[problem.contacts] = x[0::2], x[1::2]
+    cs = np.concatenate([problem.contacts, problem.load_contacts]).astype(np.int64)
+    n = np.asarray(packing.normal, float)[cs]
+    F = fn[cs, None] * n + ft[cs, None] * np.stack([-n[:, 1], n[:, 0]], axis=1)
+    inside = np.zeros(packing.n_disks, bool)
+    inside[np.asarray(problem.disks, np.int64)] = True
+    out = []
+    for body, sign in ((np.asarray(packing.a)[cs], -1.0), (np.asarray(packing.b)[cs], 1.0)):
+        k = (body >= 0) & inside[np.maximum(body, 0)]            # walls are negative codes
+        arm = np.asarray(packing.point)[cs][k] - np.stack(
+            [np.asarray(packing.x)[body[k]], np.asarray(packing.y)[body[k]]], axis=1)
+        if packing.periodic_x:                  # the contact point is stored in [0, width)
+            arm[:, 0] -= packing.width * np.round(arm[:, 0] / packing.width)
+        out.append((arm, sign * F[k], n[k], fn[cs][k]))
+    return tuple(np.concatenate(parts) for parts in zip(*out))
+
+
+def region_area(packing, problem) -> float:
+    """Area [R^2] of the region of ``problem``'s interior disks: the slice (width x
+    height) or the box between the plates (the disks' extent where a plate is absent)."""
+    if problem.height is not None:
+        return float(packing.width * problem.height)
+    y, r = np.asarray(packing.y, float), np.asarray(packing.r, float)
+    lo = packing.y_bottom if np.isfinite(packing.y_bottom) else float((y - r).min())
+    hi = packing.y_top if np.isfinite(packing.y_top) else float((y + r).max())
+    return float(packing.width * (hi - lo))
+
+
+def eta_interval(samples, chains, batches: int = 5, level: float = 0.95) -> dict:
+    """eta with its Monte-Carlo uncertainty from the chains: each chain cut into
+    ``batches`` contiguous batches (long against the autocorrelation, the batch-means
+    idea), the delete-one-batch jackknife over all of them (J = chains x batches):
+    se = sqrt((J - 1) / J sum_j (eta_-j - mean)^2), and the Student-t interval at
+    ``level``. {"eta", "se", "low", "high", "level", "batches"}; se None (no interval)
+    with fewer than 2 draws per batch."""
+    from scipy import stats
+
+    X = _check(samples)
+    c = np.asarray(chains)
+    if c.shape != (X.shape[0],):
+        raise InputError("eta_interval", "chains", f"must have shape ({X.shape[0]},)",
+                         got=c.shape)
+    value = eta(X)
+    groups = []
+    for ch in np.unique(c):
+        rows = np.flatnonzero(c == ch)
+        groups += [g for g in np.array_split(rows, batches) if g.size]
+    out = {"eta": value, "se": None, "low": None, "high": None, "level": level,
+           "batches": len(groups)}
+    if len(groups) < 2 or min(g.size for g in groups) < 2:
+        return out
+    label = np.empty(X.shape[0], np.int64)
+    for j, g in enumerate(groups):
+        label[g] = j
+    loo = np.array([eta(X[label != j]) for j in range(len(groups))])
+    J = len(groups)
+    se = float(np.sqrt((J - 1) / J * ((loo - loo.mean()) ** 2).sum()))
+    half = float(stats.t.ppf(0.5 + level / 2, J - 1)) * se
+    out.update(se=se, low=value - half, high=value + half)
+    return out

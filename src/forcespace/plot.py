@@ -184,6 +184,22 @@ def spread_colours(ax, p: Packing, spread):
     return rgba
 
 
+def plot_force_distribution(ax, distribution: dict, title: str | None = None):
+    """P(f) of an ensemble against its jammed network's on ``ax`` (log density, f in units
+    of <Fn>): ``distribution`` as :meth:`Ensemble.force_distribution` returns it."""
+    e = np.asarray(distribution["edges"], float)
+    ax.stairs(distribution["jammed"], e, color="k", lw=1.4, label="jammed network")
+    ax.stairs(distribution["ensemble"], e, color=STYLE["increase"], lw=1.4,
+              label="ensemble (all samples)")
+    ax.set_yscale("log")
+    ax.set_xlabel(r"$f = f_n / \langle F_n\rangle$")
+    ax.set_ylabel(r"$P(f)$")
+    ax.legend(fontsize=8, frameon=False, loc="upper right")
+    if title:
+        ax.set_title(title, fontsize=10)
+    return ax
+
+
 def outline(ax, p: Packing, disks, colour, linestyle="-", linewidth=1.6):
     """Outline the disks ``disks`` (packing indices) on ``ax`` (periodic images too)."""
     from matplotlib.collections import PatchCollection

@@ -147,11 +147,73 @@ def cmd_sample(args) -> int:
 
 def cmd_ensemble(args) -> int:
     from .printing import print_result
-
     from ..sampling.diagnostics import read_ensemble
-    out = read_ensemble(args.ensemble).summary()
+    from ..io.outputs import check_figure_file
+
+    if args.output is not None:
+        check_figure_file(args.output, inputs=[args.ensemble] + ([args.packing] if args.packing
+                                                                  else []))
+    ens = read_ensemble(args.ensemble)
+    out = ens.summary()
+    packing = None
+    if args.packing is not None:
+        packing, problem = ensemble_problem(ens, args.packing)
+        out.update(ens.network_measures(packing, problem))
+    if args.output is not None:
+        ensemble_figure(ens, packing, args.output)
+        out["figure"] = str(args.output)
+    if not args.json:       # one line for the arrays (all of them: --json)
+        fd = out.pop("force_distribution", None)
+        if fd is not None:
+            out["force_distribution"] = (f"mean f: ensemble {fd['mean_f_ensemble']:.4f}, "
+                                         f"jammed {fd['mean_f_jammed']:.4f} (--json: P(f))")
     print_result(out, args.json)
     return 0
+
+
+def ensemble_problem(ens, packing_path):
+    """(packing, problem) the ensemble was sampled in, rebuilt from ``packing_path`` and the
+    ensemble's recorded problem (kind, slice height, mu override); InputError naming
+    --packing when it is another packing or another problem."""
+    import numpy as np
+
+    from ..errors import InputError
+    from ..io.packing_file import read_packing
+    from ..model.problem import problem_for
+
+    packing = read_packing(packing_path)
+    ens.check_packing(packing, f"--packing {packing_path}")
+    a = ens.attrs
+    height, mu = a.get("slice_height"), a.get("mu_override")
+    full = a.get("problem_kind") == "full"
+    problem = problem_for(packing, None if full else height, full,
+                          mu=None if mu is None or not np.isfinite(mu) else float(mu),
+                          source=str(packing_path))
+    if not np.array_equal(problem.contacts, ens.contacts):
+        raise InputError(f"--packing {packing_path}", "problem", "does not rebuild the "
+                         "ensemble's problem (its contacts differ: sampled with --gap-tol "
+                         "or another kind of problem)")
+    return packing, problem
+
+
+def ensemble_figure(ens, packing, path) -> None:
+    """The ensemble's figure: P(f) against the jammed network's; with the packing, the
+    ensemble drawn on it beside (mean fn as width, its spread as colour)."""
+    from matplotlib.figure import Figure
+    from ..plot import plot_force_distribution, save_figure
+
+    ci = ens.eta_interval()
+    eta = rf"$\eta = {ci['eta']:.4f}$" + ("" if ci["se"] is None else
+                                           rf" $\pm$ {ci['high'] - ci['eta']:.4f} (95 %)")
+    fig = Figure(figsize=(12.0, 5.2) if packing is not None else (5.6, 4.2))
+    if packing is not None:
+        left, right = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.4, 1.0]})
+        ens.plot(packing, ax=left)
+    else:
+        right = fig.add_subplot()
+    plot_force_distribution(right, ens.force_distribution(),
+                            f"{ens.sampler}, {ens.n_samples} samples: {eta}")
+    save_figure(fig, path, tight=True)
 
 
 def cmd_section(args) -> int:
@@ -230,36 +292,7 @@ def register(subparsers) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_analyze)
 
-    p = subparsers.add_parser("sample", help="sample S (resumable: rerun to continue)")
-    p.add_argument("packing", metavar="PACK.h5")
-    add_problem_args(p)
-    p.add_argument("--sampler", choices=("relax", "hit-and-run", "billiard"), required=True,
-                   help="hit-and-run (uniform, the reference), billiard (uniform, fast at "
-                        "large dim S) or relax (the paper's walk)")
-    p.add_argument("-n", type=int, required=True, help="total number of samples wanted")
-    p.add_argument("-o", "--output", required=True, metavar="ENS.h5")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--tol", type=float, default=1e-9,
-                   help="relax: max violation of S relative to <Fn> per sample (default 1e-9)")
-    p.add_argument("--chains", type=int, default=None,
-                   help="independent chains (hit-and-run and billiard default 4, relax default 1)")
-    p.add_argument("--target-ess", type=float, default=None, metavar="E",
-                   help="stop as soon as every tracked statistic has bulk and tail ESS >= E "
-                        "and split R-hat <= 1.05 (-n is then the cap; exit 3 if reached first)")
-    p.add_argument("--thin", type=int, default=None,
-                   help="hit-and-run steps between samples (default max(50, dim_S^2)); billiard: "
-                        "trajectories between samples (default 1)")
-    p.add_argument("--burn-in", type=int, default=None,
-                   help="hit-and-run burn-in steps per chain (default max(500, 10 dim_S^2)); "
-                        "billiard: trajectories per chain (default 50)")
-    p.add_argument("--direction", choices=("hypersphere", "coordinate"), default=None,
-                   help="hit-and-run directions (default coordinate, in the rounded frame: "
-                        "MVE, or its Lewis-weight approximation above 1500 rows)")
-    p.add_argument("--checkpoint-every", type=int, default=10, metavar="K",
-                   help="write samples and checkpoint every K samples")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--json", action="store_true", help="print a JSON summary")
-    p.set_defaults(func=cmd_sample)
+    _register_sample(subparsers)
 
     p = subparsers.add_parser("section", help="a 2-D cross-section of S through the jammed "
                               "network (white inside S, grey by Coulomb violation)")
@@ -293,7 +326,51 @@ def register(subparsers) -> None:
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_select)
 
-    p = subparsers.add_parser("ensemble", help="measures of a sampled ensemble (eta, ...)")
+    _register_ensemble(subparsers)
+
+
+def _register_sample(subparsers) -> None:
+    p = subparsers.add_parser("sample", help="sample S (resumable: rerun to continue)")
+    p.add_argument("packing", metavar="PACK.h5")
+    add_problem_args(p)
+    p.add_argument("--sampler", choices=("relax", "hit-and-run", "billiard"), required=True,
+                   help="hit-and-run (uniform, the reference), billiard (uniform, fast at "
+                        "large dim S) or relax (the paper's walk)")
+    p.add_argument("-n", type=int, required=True, help="total number of samples wanted")
+    p.add_argument("-o", "--output", required=True, metavar="ENS.h5")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--tol", type=float, default=1e-9,
+                   help="relax: max violation of S relative to <Fn> per sample (default 1e-9)")
+    p.add_argument("--chains", type=int, default=None,
+                   help="independent chains (hit-and-run and billiard default 4, relax default 1)")
+    p.add_argument("--target-ess", type=float, default=None, metavar="E",
+                   help="stop as soon as every tracked statistic has bulk and tail ESS >= E "
+                        "and split R-hat <= 1.05 (-n is then the cap; exit 3 if reached first)")
+    p.add_argument("--thin", type=int, default=None,
+                   help="hit-and-run steps between samples (default max(50, dim_S^2)); billiard: "
+                        "trajectories between samples (default 1)")
+    p.add_argument("--burn-in", type=int, default=None,
+                   help="hit-and-run burn-in steps per chain (default max(500, 10 dim_S^2)); "
+                        "billiard: trajectories per chain (default 50)")
+    p.add_argument("--direction", choices=("hypersphere", "coordinate"), default=None,
+                   help="hit-and-run directions (default coordinate, in the rounded frame: "
+                        "MVE, or its Lewis-weight approximation above 1500 rows)")
+    p.add_argument("--checkpoint-every", type=int, default=10, metavar="K",
+                   help="write samples and checkpoint every K samples")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print a JSON summary")
+    p.set_defaults(func=cmd_sample)
+
+
+def _register_ensemble(subparsers) -> None:
+    p = subparsers.add_parser("ensemble", help="measures of a sampled ensemble (eta with its "
+                              "interval, P(f), with --packing stress and fabric tensors)")
     p.add_argument("ensemble", metavar="ENS.h5")
+    p.add_argument("--packing", metavar="PACK.h5", default=None,
+                   help="the packing it was sampled from: adds the stress and fabric tensors "
+                        "and draws the ensemble on it")
+    p.add_argument("-o", "--output", metavar="FIG.png", default=None,
+                   help="figure: P(f) of the ensemble against the jammed network's (and the "
+                        "ensemble on the packing with --packing); .png also writes .pdf")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_ensemble)

@@ -112,6 +112,58 @@ class Ensemble:
         return {"fn_mean": fn_mean, "ft_mean": ft_mean, "fn_std": fn_std, "ft_std": ft_std,
                 "spread": spread, "sampled": sampled}
 
+    def force_distribution(self, edges=None) -> dict:
+        """P(f), f = fn / <Fn> (``force_scale``), of every sampled contact over all the
+        samples, beside the jammed network's: {"edges" (b + 1,), "ensemble" (b,),
+        "jammed" (b,), "unit", "mean_f_ensemble", "mean_f_jammed"}; default bins 0.1 wide
+        from 0 to past the largest force."""
+        from ..measures import force_pdf
+        fn, fj = self.forces[:, :, 0], self.x_jammed[0::2]
+        if edges is None:
+            top = max(float(fn.max(initial=0.0)), float(fj.max(initial=0.0))) / self.force_scale
+            edges = np.arange(0.0, np.floor(top / 0.1) * 0.1 + 0.2, 0.1)
+        return {"edges": np.asarray(edges, float), "unit": "f = fn / <Fn> (the jammed mean "
+                "normal force of the problem's contacts); density per unit f",
+                "ensemble": force_pdf(fn, self.force_scale, edges),
+                "jammed": force_pdf(fj, self.force_scale, edges),
+                "mean_f_ensemble": float(fn.mean() / self.force_scale),
+                "mean_f_jammed": float(fj.mean() / self.force_scale)}
+
+    def eta_interval(self, batches: int = 5, level: float = 0.95) -> dict:
+        """eta with its standard error and ``level`` interval from the chains
+        (:func:`forcespace.measures.eta_interval`: batch jackknife)."""
+        from ..measures import eta_interval
+        return eta_interval(self.samples, self.chains, batches, level)
+
+    def network_measures(self, packing, problem) -> dict:
+        """Stress and fabric tensors of the jammed network and over the samples, on the
+        interior disks of ``problem`` (the ensemble's own, checked): "stress" [F0/R]
+        (:func:`forcespace.measures.stress_tensor`; jammed, mean over the samples, and
+        each component's min and max over them) and "fabric" [1] (geometric, of the
+        force-bearing contacts, fn > ``config.FORCE_BEARING`` <Fn>; jammed and mean)."""
+        from ..measures import fabric_tensor, network_arms_and_forces, region_area, \
+            stress_tensor
+        self.check_packing(packing, "Ensemble.network_measures")
+        if not np.array_equal(problem.contacts, self.contacts):
+            raise InputError("Ensemble.network_measures", "problem", "must be the problem "
+                             "the ensemble was sampled in (its contacts differ)")
+        area = region_area(packing, problem)
+
+        def one(x):
+            arms, F, n, fn = network_arms_and_forces(packing, problem, x)
+            bearing = fn > config.FORCE_BEARING * self.force_scale
+            return stress_tensor(arms, F, area), fabric_tensor(n[bearing])
+        jam = one(self.x_jammed)
+        each = [one(x) for x in self.samples]
+        st = np.array([e[0] for e in each])
+        return {"area_R2": area, "stress": {
+                    "unit": "F0/R (2-D: force per length; compression < 0)",
+                    "jammed": jam[0].tolist(), "mean": st.mean(0).tolist(),
+                    "min": st.min(0).tolist(), "max": st.max(0).tolist()},
+                "fabric": {"unit": "1 (sum n n / N_c over force-bearing contacts; trace 1)",
+                           "jammed": jam[1].tolist(),
+                           "mean": np.mean([e[1] for e in each], 0).tolist()}}
+
     def check_packing(self, packing, who: str = "Ensemble") -> None:
         """InputError unless ``packing`` is the one these samples are of: its contacts
         ``contacts`` exist and carry the jammed forces ``x_jammed`` (another packing's
@@ -185,6 +237,9 @@ class Ensemble:
                     f"samples differ only at the solver's accuracy (rms spread "
                     f"{rms_spread:.1e} <Fn> <= {config.SPREAD_FLOOR:g}): S is numerically "
                     "a point")
+        if self.n_samples:
+            out["eta_interval"] = self.eta_interval()
+            out["force_distribution"] = self.force_distribution()
         out.update(self.diagnostics)
         return out
 
