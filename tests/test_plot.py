@@ -83,3 +83,33 @@ def test_a_title_above_the_figure_edge_is_saved_not_cut_off(tmp_path):
     title = ax.title.get_window_extent()
     assert title.y0 > fig.bbox.height                     # drawn beyond the canvas...
     assert img.shape[0] > fig.bbox.height + title.height  # ...and inside the saved image
+
+
+def test_the_difference_figure_tells_its_elementary_clusters_apart():
+    """The paper's Fig. 2 (``draw --difference``): each elementary cluster's disks shaded
+    in a colour of its own, above the disks (else hidden under their faces), below the
+    force lines; the slice's edges dashed where asked."""
+    from matplotlib.collections import LineCollection, PatchCollection
+    from ensemble_cases import grooves
+    from forcespace.plot import plot_difference
+    from forcespace.space.force_space import ForceSpace
+    from forcespace.space.structure import decompose, extreme_pair
+
+    p, prob = grooves([0.3, 0.5, 0.7], mu=0.5)
+    an = ForceSpace(ranges=False).compute(prob)
+    dec = decompose(prob, an, p)
+    elementary = [c for c in dec.clusters if c.elementary]
+    assert len(elementary) == 3                                # one per groove
+    x1, x2 = extreme_pair(prob, an)
+    ax = plot_difference(p, prob, x1, x2, dec.domains, clusters=dec.clusters,
+                         slice_edges=(0.5, 2.5))
+    shaded = [c for c in ax.collections if isinstance(c, PatchCollection) and c.zorder == 1.5]
+    colours = {tuple(c.get_facecolor()[0]) for c in shaded}
+    assert len(shaded) == len(colours) == 3
+    disks = max(c.zorder for c in ax.collections if isinstance(c, PatchCollection)
+                and c not in shaded)
+    lines = min(c.zorder for c in ax.collections if isinstance(c, LineCollection))
+    assert disks < 1.5 < lines
+    assert {l.get_ydata()[0] for l in ax.lines if l.get_linestyle() == "--"} == {0.5, 2.5}
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "3 elementary clusters (one colour each)" in labels

@@ -212,13 +212,16 @@ def outline(ax, p: Packing, disks, colour, linestyle="-", linewidth=1.6):
 
 
 def plot_difference(packing: Packing, problem, x1, x2, domains=None, ax=None,
-                    title: str | None = None, clusters=None):
+                    title: str | None = None, clusters=None, slice_edges=None):
     """The signed difference x2 - x1 of two networks of ``problem`` (each (2m,) [F0]):
     normal-force differences red (+) / blue (-), width by magnitude, with the
     disks of each domain (:class:`forcespace.space.structure.Domain`) outlined, and the
-    elementary clusters (:class:`forcespace.space.structure.Cluster` with ``elementary``)
-    inside them dashed in black. Returns the Axes."""
-    from matplotlib.patches import Patch
+    disks of each elementary cluster (:class:`forcespace.space.structure.Cluster` with
+    ``elementary``) shaded in its own colour; ``slice_edges`` (y_low, y_high) [R]: the
+    slice's edges, dashed. Returns the Axes."""
+    from matplotlib.collections import PatchCollection
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Circle, Patch
 
     d = np.zeros(packing.n_contacts)
     diff = np.asarray(x2, float) - np.asarray(x1, float)
@@ -227,15 +230,24 @@ def plot_difference(packing: Packing, problem, x1, x2, domains=None, ax=None,
                       highlight=[g.disks for g in (domains or [])], quantity=r"|\Delta f_n|",
                       title=title or r"difference of two admissible networks ($\Delta f_n$)")
     elementary = [c for c in clusters or [] if c.elementary]
-    for c in elementary:
-        outline(ax, packing, c.disks, "k", linestyle="--", linewidth=0.9)
-    if elementary:
+    shifts = [-1, 0, 1] if packing.periodic_x else [0]
+    for q, c in enumerate(elementary):   # one colour per cluster: over the disks (inside
+        colour = CLUSTER_COLOURS[q % len(CLUSTER_COLOURS)]      # their outlines), under
+        ax.add_collection(PatchCollection(                      # the force lines
+            [Circle((packing.x[i] + s * packing.width, packing.y[i]), 0.85 * packing.r[i])
+             for s in shifts for i in c.disks], facecolor=colour, edgecolor="none",
+            zorder=1.5))
+    extra = [Patch(facecolor=CLUSTER_COLOURS[0], label=f"{len(elementary)} elementary "
+                   "clusters (one colour each)")] if elementary else []
+    if slice_edges is not None:
+        for y in slice_edges:
+            ax.axhline(y, color=STYLE["wall"], lw=1.0, ls="--")
+        extra.append(Line2D([], [], color=STYLE["wall"], lw=1.0, ls="--",
+                            label=f"slice ({slice_edges[1] - slice_edges[0]:g} $R$)"))
+    if extra:
         leg = ax.get_legend()
-        handles = list(leg.legend_handles) + [Patch(facecolor="none", edgecolor="k",
-                                                    linestyle="--",
-                                                    label="elementary clusters")]
         force_legend(ax, np.abs(d).max() or 1.0, signed=True, quantity=r"|\Delta f_n|",
-                     extra=handles[5:])
+                     extra=list(leg.legend_handles)[5:] + extra)
     return ax
 
 
@@ -315,6 +327,13 @@ def _range_panel(ax, rng, measured, nearest, inside, truth=None) -> None:
         ax.plot(idx, truth, ".", ms=2, color="C2")
         handles.append(Line2D([], [], marker=".", ls="", color="C2", label="true"))
     ax.legend(handles=handles, fontsize=7.5, loc="upper left")
+
+
+# qualitative colours for elementary clusters (pale enough for the force lines on top)
+CLUSTER_COLOURS = [(0.99, 0.75, 0.45), (0.60, 0.87, 0.62), (0.80, 0.70, 0.95),
+                   (0.98, 0.65, 0.75), (0.55, 0.85, 0.90), (0.95, 0.90, 0.45),
+                   (0.80, 0.80, 0.55), (0.70, 0.80, 0.98), (0.90, 0.75, 0.60),
+                   (0.75, 0.95, 0.85)]
 
 
 def draw_packing(p: Packing, path, title: str | None = None, values=None,

@@ -108,6 +108,7 @@ def cmd_draw(args) -> int:
     from ..io.figures import save_figure
     from ..plot import plot_difference
     from .space import analysed
+    from ..model.problem import slice_bounds
 
     packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
     an = analysed(problem)
@@ -118,8 +119,11 @@ def cmd_draw(args) -> int:
     dec = decompose(problem, an, packing)
     x1, x2 = extreme_pair(problem, an, args.seed)
     mu = packing.mu if args.mu is None else args.mu
+    edges = None if problem.height is None else slice_bounds(packing, problem.height)
     ax = plot_difference(packing, problem, x1, x2, dec.domains, clusters=dec.clusters,
-                         title=f"mu = {mu:g}: x2 - x1 (fn), dim S = {an.dim}, "
+                         slice_edges=edges,
+                         title=rf"$\mu = {mu:g}$: $\Delta f_n = f_n^{{(2)}} - f_n^{{(1)}}$ "
+                               rf"between two far-apart vertices of $S$; dim $S$ = {an.dim}, "
                                f"{dec.n_elementary} elementary clusters")
     ax.figure.tight_layout()
     save_figure(ax.figure, args.output)

@@ -306,6 +306,14 @@ def _centre_y(p: Packing) -> float:
     return 0.5 * (p.y.min() + p.y.max())
 
 
+def slice_bounds(p: Packing, height: float) -> tuple[float, float]:
+    """(y_low, y_high) [R] of the slice of ``height`` in the middle of the packing (between
+    the plates, else of the disks' centres): the slice holds the disks with centres in
+    between."""
+    yc = _centre_y(p)
+    return yc - 0.5 * height, yc + 0.5 * height
+
+
 def classify_contacts(p, interior, rat, unknown_walls, gap_tol, support_mask):
     """Masks (Nc,) of the unknown contacts (between two interior disks, or between an
     interior disk and a support: a wall of ``unknown_walls`` or a disk of
