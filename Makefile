@@ -13,16 +13,20 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 SUDO   := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
-export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
+# numba caches forcespace's kernels beside its sources (or where NUMBA_CACHE_DIR says, if
+# the user's environment sets it): the same cache for make and for a plain shell, so they
+# compile once per machine and version
 
 .PHONY: install liggghts demo test bench studies clean
 
 install: $(STAMP)
 
 $(STAMP): pyproject.toml
+	@echo "== creating $(VENV) and installing forcespace with its dependencies (numpy, scipy," \
+	  "numba, HiGHS, matplotlib, ...; 1-3 minutes on a fresh machine)"
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --progress-bar on -e '.[test]'
 	touch $(STAMP)
 
 # LIGGGHTS comes from Debian; installed only when the binary is missing.
@@ -60,4 +64,4 @@ studies: install liggghts
 	$(BIN)/forcespace study report $(addprefix studies/results/,$(STUDIES)) -o studies/REPORT.md
 
 clean:
-	rm -rf out .numba_cache .pytest_cache
+	rm -rf out .pytest_cache

@@ -39,3 +39,21 @@ def test_kernels_are_cached_under_the_source_stamp_and_the_environment_is_untouc
     assert out[0] == str(tmp_path)                  # importing forcespace changed nothing
     assert out[1].startswith("Forcespace") and out[2:] == ["True", "True"]
     assert any(tmp_path.rglob("*.nbi"))             # the cache was written where numba puts it
+
+
+def test_a_first_run_says_it_compiles_and_a_cached_one_does_not(tmp_path):
+    """issue 47: the first `pack` sat at 0 % for 45-60 s of compilation without a word.
+    With an empty cache the kernels of a module are listed as uncached and the notice is
+    printed; once they ran (compiled and cached), they are not and it is silent."""
+    code = ("import io, sys; from forcespace.kernels import uncached_kernels, compile_notice; "
+            "from forcespace.model.walls import contact_mu; pk = ('forcespace.model.walls',); "
+            "before = uncached_kernels(pk); s = io.StringIO(); said = compile_notice(pk, s); "
+            "contact_mu(True, 0.1, 0.2); "
+            "print('forcespace.model.walls.contact_mu' in before, said, 'compiling' in "
+            "s.getvalue(), uncached_kernels(pk), compile_notice(pk, io.StringIO()))")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    run = [sys.executable, "-c", code]
+    first = subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout
+    assert first.split() == ["True", "True", "True", "[]", "False"]
+    again = subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout
+    assert again.split()[:2] == ["False", "False"]

@@ -85,3 +85,45 @@ def kernel(*args, **options):
     _register_locators()
     options.setdefault("cache", True)
     return njit(*args, **options)
+
+
+def uncached_kernels(packages=("forcespace",)) -> list[str]:
+    """Names of the kernels of the modules under ``packages`` (imported here) that numba's
+    on-disk cache does not hold for this source stamp: they compile at their first call
+    (about a minute for the engine's on a fresh install). Empty when numba's cache layout
+    is not the one known here (nothing can be said)."""
+    import importlib
+
+    from numba.core.registry import CPUDispatcher
+
+    names = []
+    for path in sorted(PACKAGE_DIR.rglob("*.py")):
+        module = "forcespace." + ".".join(path.relative_to(PACKAGE_DIR).with_suffix("").parts)
+        if not module.startswith(tuple(packages)) or b"@kernel" not in path.read_bytes():
+            continue
+        for obj in list(vars(importlib.import_module(module)).values()):
+            if isinstance(obj, CPUDispatcher) and obj.__module__ == module:
+                try:
+                    cached = bool(obj._cache._cache_file._load_index())
+                except Exception:           # another numba: say nothing
+                    cached = True
+                if not cached:
+                    names.append(f"{module}.{obj.__name__}")
+    return sorted(set(names))
+
+
+def compile_notice(packages=("forcespace",), stream=None) -> bool:
+    """Print one line on ``stream`` (default: stderr, when it is a terminal: a log or a
+    pipe gets the command's own lines only) when kernels under ``packages`` will compile
+    (the first run of this version on this machine), so a first command is not silent
+    for a minute; True if printed."""
+    import sys
+
+    if stream is None and not sys.stderr.isatty():
+        return False
+    todo = uncached_kernels(packages)
+    if todo:
+        print(f"forcespace: compiling {len(todo)} numba kernels of this version (once per "
+              "machine, 20-60 s; cached afterwards)...", file=stream or sys.stderr,
+              flush=True)
+    return bool(todo)

@@ -47,6 +47,7 @@ def register(sub):
 
 def cmd_pack(args) -> int:
     from ..engine.protocol import build_packing
+    from ..kernels import compile_notice
     from ..io.outputs import check_output_file, output_lock
     from ..io.packing_file import write_packing
     from ..model.scene import load_scene
@@ -64,6 +65,8 @@ def cmd_pack(args) -> int:
     with output_lock(args.output):
         if checkpoint.exists() and not args.quiet:
             print(f"resuming from {checkpoint}")
+        if not args.quiet:
+            compile_notice(("forcespace.engine", "forcespace.model"))
         packing = build_packing(scene, show_progress=not args.quiet, checkpoint=checkpoint)
         if scaled:
             packing.meta["scaled_box"] = scaled

@@ -128,6 +128,10 @@ def cmd_sample(args) -> int:
         sampler = HitAndRun(args.n, chains=args.chains, thin=args.thin, burn_in=args.burn_in,
                             direction=args.direction, **common)
     packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
+    if not args.quiet:
+        from ..kernels import compile_notice
+        compile_notice(("forcespace.sampling", "forcespace.engine") if args.sampler == "relax"
+                       else ("forcespace.sampling",))
     res = sampler.compute(problem, output=args.output).summary()
     res["output"] = str(args.output)
     if res.get("n_projected"):
