@@ -36,11 +36,21 @@ liggghts:
 	  $(SUDO) apt-get update -qq && \
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq liggghts >/dev/null; }
 
+# the main job on a small frictional packing (about a minute; the first run also compiles
+# the numba kernels): jam, the exact analysis of S, uniform samples of S until converged,
+# the ensemble's figure (P(f) and the spread of every contact force) and a 2-D section of S
 demo: install
-	$(BIN)/forcespace pack inputs/quick.toml -o out/quick.h5
-	$(BIN)/forcespace info out/quick.h5
-	$(BIN)/forcespace analyze out/quick.h5 --full --json
-	$(BIN)/forcespace draw out/quick.h5 -o out/quick.png
+	@echo "== jam 40 frictional disks (bundled scene quick at mu = 0.3) -> out/demo.h5"
+	$(BIN)/forcespace pack quick --mu 0.3 -o out/demo.h5
+	@echo "== the exact analysis of S, the forces in equilibrium with the loads (LPs)"
+	$(BIN)/forcespace analyze out/demo.h5 --full
+	@echo "== uniform samples of S (billiard walk) until ESS 200 -> out/demo_ensemble.h5"
+	$(BIN)/forcespace sample out/demo.h5 --full --sampler billiard -n 20000 --target-ess 200 \
+	  -o out/demo_ensemble.h5
+	@echo "== eta with its interval, P(f), stress and fabric -> out/demo_ensemble.png/.pdf"
+	$(BIN)/forcespace ensemble out/demo_ensemble.h5 --packing out/demo.h5 -o out/demo_ensemble.png
+	@echo "== a 2-D section of S through the jammed network -> out/demo_section.png/.pdf"
+	$(BIN)/forcespace section out/demo.h5 --full -o out/demo_section.png
 
 test: install liggghts
 	$(BIN)/python -m pytest -q

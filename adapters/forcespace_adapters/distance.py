@@ -185,6 +185,11 @@ def verdict(relative_distance: float, soft: Packing, report: dict | None = None)
         extra = (f"; {report['unmatched_contacts']} soft contact(s) absent from the rigid "
                  f"packing carry up to {report['max_unmatched_force_rel']:.2g} <Fn> (rigid gaps "
                  "closed by the soft overlaps)")
+    if not inside:      # the soft code's own error falls as its springs stiffen
+        kn = meta.get("kn")
+        extra += ("; a stiffer soft run lands closer to S" + (f" (try kn = {10 * kn:g} <Fn>/R"
+                  if kn else " (a larger kn") + "; all 6 paper packings of the LIGGGHTS "
+                  "ladder land inside S at kn = 1e7 <Fn>/R, 2 of 6 at 1e6)")
     text = ("inside S at the soft code's accuracy: " if inside else
             "outside S beyond the soft code's accuracy: ") + why + extra
     return {"inside_S": inside, "relative_distance": relative_distance, "accuracy": acc,

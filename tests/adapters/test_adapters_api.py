@@ -64,4 +64,5 @@ def test_verdict_tells_a_soft_network_inside_S_from_one_outside():
     assert not c2["verdict"]["inside_S"]
     assert c2["relative_distance"] > 10 * c2["verdict"]["accuracy"]
     assert "outside S" in c2["verdict"]["text"]
+    assert "stiffer soft run" in c2["verdict"]["text"] and "stiffer" not in v["text"]
     assert isinstance(fs.plate_problem(p), fs.StaticsProblem)
