@@ -113,3 +113,10 @@ def test_the_difference_figure_tells_its_elementary_clusters_apart():
     assert {l.get_ydata()[0] for l in ax.lines if l.get_linestyle() == "--"} == {0.5, 2.5}
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert "3 elementary clusters (one colour each)" in labels
+
+
+def test_a_packing_without_a_scene_name_is_titled_by_its_file_or_as_a_packing():
+    p = _walled()                                       # built from arrays: no scene, no file
+    assert plot_packing(p).get_title().startswith("packing: $n = 3$")
+    p.source = "/somewhere/my_run.h5"
+    assert plot_packing(p).get_title().startswith("my_run: $n = 3$")

@@ -8,6 +8,7 @@ same helpers.
 """
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -156,7 +157,8 @@ def plot_packing(p: Packing, ax=None, values=None, signed: bool = False,
     ax.set_ylabel(LABELS["y"])
     if legend:
         force_legend(ax, scale, signed=signed, quantity=quantity, extra=extra)
-    ax.set_title(title or (f"{p.scene_name}: $n = {p.n_disks}$, $\\mu = {p.mu:g}$, "
+    name = p.scene_name or (Path(p.source).stem if p.source else "packing")
+    ax.set_title(title or (f"{name}: $n = {p.n_disks}$, $\\mu = {p.mu:g}$, "
                            f"$z = {p.coordination():.3f}$"), pad=52 if legend else 6,
                  fontsize=10)
     return ax

@@ -30,6 +30,12 @@ def test_section_of_two_grooves_is_their_rectangle():
         x = sec.x0 + S_[i, j] * sec.d1 + T_[i, j] * sec.d2
         assert (prob.violation(x) <= 1e-9) == (sec.violation[i, j] == 0.0)
     assert sec.violation.max() > 0 and sec.s_range[0] <= 0 <= sec.s_range[1]
+    # the figure says that white is S (exactly the cells of zero violation: NaN, undrawn)
+    ax = sec.plot()
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert any(label.startswith("$S$ (white") for label in labels)
+    mesh = ax.collections[0].get_array()
+    assert np.ma.count_masked(mesh) == np.count_nonzero(sec.violation == 0.0) > 0
 
 
 def test_section_cli_and_refusals(tmp_path, capsys):

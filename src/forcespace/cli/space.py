@@ -228,9 +228,12 @@ def cmd_section(args) -> int:
     check_seed(args.seed)
     check_problem_args(args.mu, args.gap_tol, args.slice)
     check_figure_file(args.output, inputs=[args.packing])
-    _, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
+    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
     sec = Section(n=args.n, seed=args.seed).compute(problem)
-    ax = sec.plot(title=f"S through the jammed network ({problem.kind}, seed {args.seed})")
+    from pathlib import Path
+    name = packing.scene_name or Path(args.packing).stem
+    ax = sec.plot(title=rf"$S$ of {name} ({problem.kind}) through the jammed network, "
+                        f"random directions (seed {args.seed})")
     ax.figure.tight_layout()
     from ..io.figures import save_figure
     save_figure(ax.figure, args.output)

@@ -153,6 +153,7 @@ class Section(Computed):
         from matplotlib import colormaps
         from matplotlib.colors import ListedColormap, LogNorm
         from matplotlib.figure import Figure
+        from matplotlib.patches import Rectangle
         from matplotlib.ticker import MaxNLocator
 
         from ..plot import STYLE
@@ -173,6 +174,8 @@ class Section(Computed):
             bar.set_label(r"Coulomb violation / $\langle F_n\rangle$")
         ax.plot([0], [0], marker="*", color=STYLE["increase"], ms=11, ls="none",
                 label=r"$x_0$ (jammed network)")
+        ax.add_patch(Rectangle((np.nan, np.nan), 0, 0, facecolor="white", edgecolor="0.4",
+                               lw=0.6, label=r"$S$ (white: every constraint holds)"))
         ax.set_xlabel(r"$s$ along $d_1$ [$F_0$]")
         ax.set_ylabel(r"$t$ along $d_2$ [$F_0$]")
         ax.set_title(title or r"cross-section of $S$", fontsize=10)
