@@ -101,6 +101,9 @@ def test_projection_onto_groove_segment_is_exact():
         assert np.isclose(res.relative, res.absolute / (prob.force_scale * np.sqrt(2)))
     inside = p0 + 0.5 * (lo + hi) * q
     assert distance_to_S(prob, inside).absolute < 1e-12
+    text = repr(res)                    # its numbers, not the nearest network's entries
+    assert f"relative={res.relative:.3e} <Fn>" in text and "nearest=<4 forces>" in text
+    assert "[" not in text and len(text) < 300     # before: every entry of nearest
 
 
 def test_projection_in_a_14_dimensional_S_satisfies_kkt():

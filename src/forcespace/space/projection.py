@@ -47,6 +47,12 @@ class DistanceResult:
     method: str
     allowed_violation: float = config.SAMPLE_VIOLATION
 
+    def __repr__(self) -> str:        # the numbers, not the (2m,) nearest network
+        return (f"DistanceResult(relative={self.relative:.3e} <Fn> rms per contact, "
+                f"absolute={self.absolute:.3e} F0, max_violation={self.max_violation:.1e}, "
+                f"kkt_residual={self.kkt_residual:.1e}, method={self.method!r}, "
+                f"nearest=<{np.shape(self.nearest)[0]} forces>)")
+
 
 @dataclass
 class _Frame:
