@@ -68,3 +68,27 @@ def test_commands_run_with_one_blas_thread_unless_the_environment_sets_a_count(m
         assert blas_threads_in_command() == {1}
         monkeypatch.setenv("OMP_NUM_THREADS", "2")
         assert blas_threads_in_command() == {2}
+
+
+def test_dimensioned_numbers_carry_their_units(tmp_path, capsys):
+    """issue 47: info/analyze --json gave centre_radius, max_sum_fn, force_scale, ... with
+    no unit. A "units" entry names each; the plain output shows it beside the number."""
+    from ensemble_cases import pyramid
+    from forcespace.io.packing_file import write_packing
+
+    p, _ = pyramid(3, 0.6)
+    write_packing(p, tmp_path / "p.h5")
+    assert cli.main(["info", str(tmp_path / "p.h5"), "--json"]) == 0
+    units = json.loads(capsys.readouterr().out)["units"]
+    assert {units[k] for k in ("width", "max_overlap")} == {"R"}
+    assert units["mean_normal_force"] == "F0"
+    assert cli.main(["analyze", str(tmp_path / "p.h5"), "--full", "--json", "--quiet"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["units"]["max_sum_fn"] == "F0" and out["units"]["centre_radius"].startswith("F0")
+    assert out["units"]["force_scale"].startswith("F0") and out["units"]["slice_height"] == "R"
+    assert all(k in out or "." in k or k.endswith("_range") for k in out["units"])
+    assert cli.main(["analyze", str(tmp_path / "p.h5"), "--full", "--quiet"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert any(line.strip().startswith("max_sum_fn:") and line.endswith("[F0]")
+               for line in lines)
+    assert not any(line.strip().startswith("units:") for line in lines)

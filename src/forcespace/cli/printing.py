@@ -10,10 +10,15 @@ def print_json(obj) -> None:
 
 
 def print_result(obj: dict, as_json: bool) -> None:
-    """Print a command's result: JSON, or one aligned ``key: value`` line per entry."""
+    """Print a command's result: JSON (its "units" entry, if any, a dict beside the
+    numbers), or one aligned ``key: value [unit]`` line per entry."""
     if as_json:
         print_json(obj)
         return
-    width = max((len(k) for k in obj), default=0)
-    for k, v in obj.items():
-        print(f"{k:>{width}}: {v}")
+    units = obj.get("units") if isinstance(obj.get("units"), dict) else {}
+    shown = {k: v for k, v in obj.items() if k != "units" or not units}
+    width = max((len(k) for k in shown), default=0)
+    for k, v in shown.items():
+        unit = units.get(k)
+        shown_unit = unit and unit != "1" and v is not None
+        print(f"{k:>{width}}: {v}" + (f" [{unit}]" if shown_unit else ""))

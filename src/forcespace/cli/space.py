@@ -102,6 +102,9 @@ def cmd_analyze(args) -> int:
         from ..space.structure import decompose
         out["clusters"] = decompose(problem, S, packing).summary()
     out["wall_time_s"] = time.perf_counter() - t0
+    out["units"] = dict(out.pop("units", {}), slice_height="R", fn_range="F0", ft_range="F0",
+                        load_inconsistency="<Fn>", jammed_violation="<Fn>",
+                        z="contacts per non-rattler disk", wall_time_s="s (wall clock)")
     print_result(out, args.json)
     return 0
 

@@ -347,6 +347,7 @@ class Packing:
             **{k: v for k, v in self.meta.items() if isinstance(v, (int, float, str, bool))},
             **({"measurement": self.measurement.summary()} if self.measurement is not None
                else {}),
+            "units": SUMMARY_UNITS,
         }
 
     def packing_fraction(self) -> float | None:
@@ -547,3 +548,17 @@ def tile(p: Packing, k: int) -> Packing:
                    top_force=k * p.top_force, density=density, a=np.concatenate(a_blocks),
                    b=np.concatenate(b_blocks), image=np.concatenate(img_blocks), source="",
                    external=external, **fields)
+
+
+# the unit of every dimensioned number of Packing.summary (`forcespace info --json`): R the
+# smallest disk's radius scale of the scene, F0 the scene's load unit (the top-plate force,
+# or rho g R^2 without a plate), <Fn> the packing's mean normal force
+SUMMARY_UNITS = {
+    "width": "R", "height": "R", "max_overlap": "R", "mean_normal_force": "F0",
+    "equilibrium_residual": "<Fn> (largest force imbalance of a disk or the plate / <Fn>; "
+                            "torques / (r <Fn>))",
+    "static_residual": "<Fn> (as equilibrium_residual, at the end of the static solve)",
+    "z": "contacts per non-rattler disk", "packing_fraction": "1", "mu": "1",
+    "plate_mu": "1", "compress_seconds": "s (wall clock)", "static_seconds": "s (wall clock)",
+    "wall_seconds": "s (wall clock)", "steps": "time steps",
+}

@@ -283,6 +283,9 @@ class ForceSpace(Computed):
                       "n_thin_directions": int(r["dim"]) - sum(g.dim for g in doms)})
         if self._status:
             d["analysis_failed"] = self._message
+        d["units"] = {"max_sum_fn": "F0", "centre_radius": "F0 (radius of the largest ball "
+                      "in S within its affine hull)", "force_scale": "F0 (<Fn>: the jammed "
+                      "mean normal force of the problem's contacts)"}
         return d
 
     def plot(self, packing, ax=None, **kw):
