@@ -92,3 +92,20 @@ def test_dimensioned_numbers_carry_their_units(tmp_path, capsys):
     assert any(line.strip().startswith("max_sum_fn:") and line.endswith("[F0]")
                for line in lines)
     assert not any(line.strip().startswith("units:") for line in lines)
+
+
+def test_a_target_ess_run_says_it_converged_and_its_bar_ends_full(tmp_path, capsys):
+    """issue 47: `sample --target-ess` never said whether it converged, and its bar stopped
+    at 400/100000 (<33:10) after convergence."""
+    from ensemble_cases import pyramid
+    from forcespace.io.packing_file import write_packing
+
+    p, _ = pyramid(3, 0.6)
+    write_packing(p, tmp_path / "p.h5")
+    assert cli.main(["sample", str(tmp_path / "p.h5"), "--full", "--sampler", "billiard",
+                     "-n", "20000", "--target-ess", "50", "-o", str(tmp_path / "e.h5")]) == 0
+    err = capsys.readouterr().err
+    last = err.replace("\r", "\n").strip().splitlines()
+    assert "converged: ESS >= " in last[-1] and "(target 50)" in last[-1]
+    n = int(last[-1].split()[0])
+    assert n < 20000 and "100%" in last[-2] and f"{n}/{n}" in last[-2]

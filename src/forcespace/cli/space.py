@@ -144,9 +144,11 @@ def cmd_sample(args) -> int:
     if args.json:
         print_json(res)
     else:
+        # a target-ESS run says how it ended (converged, or short of the target: exit 3)
+        ended = f"; {sampler.message}" if args.target_ess is not None else ""
         print(f"{res['n_samples']} samples in {args.output} "
               f"(max violation {res['max_violation']:.2e} x <Fn>, "
-              f"{res['wall_time_s']:.1f} s this run)", file=sys.stderr)
+              f"{res['wall_time_s']:.1f} s this run){ended}", file=sys.stderr)
     if not sampler.success:
         raise NumericalError(sampler.message)
     return 0

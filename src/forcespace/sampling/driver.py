@@ -248,6 +248,9 @@ def _draw(walk, problem, stop, output, old, every, progress, t0) -> Ensemble:
                 if stop.last and bar.total != stop.expected_total():
                     bar.total = stop.expected_total()     # the ETA to the target ESS
                     bar.refresh()
+            if outcome is not None and outcome[0] == 0 and bar.total != bar.n:
+                bar.total = bar.n       # converged: the bar ends full, not at n's 2 %
+                bar.refresh()
         except Interrupted:    # Ctrl-C, honoured between draws or at a walk's safe point
             sink.flush()
             raise Interrupted(_where(have + len(sink.drawn), output)) from None
