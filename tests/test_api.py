@@ -65,7 +65,9 @@ def test_force_space_and_both_samplers_in_memory(tmp_path):
         assert S.ft_range[2 * k] == pytest.approx([lo, hi], rel=1e-7)
     assert S.contains(S.centre) and S.distance(S.centre).absolute < 1e-12
     for sampler in (fs.HitAndRun(n=40, seed=2), fs.RelaxWalk(n=20, seed=2)):
+        before = repr(sampler)
         ens = sampler.compute(prob).ensemble
+        assert repr(sampler) == f"{before}: {sampler.n} samples, eta = {ens.eta:.4g}"
         assert isinstance(ens, fs.Ensemble) and ens.forces.shape == (sampler.n, 4, 2)
         assert max(prob.violation(x) for x in ens.samples) <= 1e-9
         assert ens.eta > 0 and "n_samples" in repr(ens)

@@ -328,7 +328,15 @@ class Sampler(Computed):
         return self.ensemble.plot(packing, sample, ax, **kw)
 
     def __repr__(self) -> str:
-        return f"{type(self).__name__}(n={self.n}, seed={self.seed})"
+        return f"{type(self).__name__}(n={self.n}, seed={self.seed}){self._outcome()}"
+
+    def _outcome(self) -> str:
+        """': k samples, eta ..., message' once computed (the repr says what it did)."""
+        if not self.computed or self._results.get("ensemble") is None:
+            return ""
+        ens = self.ensemble
+        said = "" if self.message == f"{ens.n_samples} samples" else f", {self.message}"
+        return f": {ens.n_samples} samples, eta = {ens.eta:.4g}{said}"
 
 
 class TimedStop(Stop):

@@ -295,4 +295,4 @@ class RelaxWalk(Sampler):
                 "params": self.params, "status": self.status, "message": self.message}
 
     def __repr__(self) -> str:
-        return f"RelaxWalk(n={self.n}, seed={self.seed}, tol={self.tol:g})"
+        return f"RelaxWalk(n={self.n}, seed={self.seed}, tol={self.tol:g}){self._outcome()}"
