@@ -225,7 +225,7 @@ def _figure(out, own, squares, floor_rows, eta, band, numbers) -> None:
 
     from forcespace.extend import LABELS as PLOT_LABELS, save_figure
 
-    fig = Figure(figsize=(15, 4.6))
+    fig = Figure(figsize=(15, 6.4))
     ax1, ax2, ax3 = fig.subplots(1, 3)
     for k, colour in (("hit_and_run", "C0"), ("relax", "C1")):
         ms = [m for m, b in band[k].items() if b[0] > 0]
@@ -254,7 +254,8 @@ def _figure(out, own, squares, floor_rows, eta, band, numbers) -> None:
     ax1.set(xscale="log", yscale="log", xlabel=PLOT_LABELS.get("mu", r"$\mu$"),
             ylabel=r"$\eta = \langle \delta F \rangle / \langle |F| \rangle$",
             title="force ambiguity (converged chains only)")
-    ax1.legend(fontsize=6, loc="lower right")
+    below = dict(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), frameon=False)
+    ax1.legend(**below)        # legends under their panels: never on the data
     z, fm = by_mu(own, "z"), by_mu(own, "mobilised_fraction")
     zm = list(z)
     ax2.errorbar(zm, [z[m].mean() for m in zm], [z[m].std() for m in zm], fmt="o-", ms=4,
@@ -270,7 +271,7 @@ def _figure(out, own, squares, floor_rows, eta, band, numbers) -> None:
     ax2b.set(ylabel="mobilised fraction", ylim=(0, 1))
     h1, l1 = ax2.get_legend_handles_labels()
     h2, l2 = ax2b.get_legend_handles_labels()
-    ax2.legend(h1 + h2, l1 + l2, fontsize=7, loc="center left")
+    ax2.legend(h1 + h2, l1 + l2, **below)
     dim, doi = by_mu(own, "dim_S"), by_mu(own, "degree_of_indeterminacy")
     dm = list(dim)
     ax3.plot(dm, [dim[m].mean() for m in dm], "o-", ms=4, label=r"dim $S$ (slice)")
@@ -283,7 +284,7 @@ def _figure(out, own, squares, floor_rows, eta, band, numbers) -> None:
     ax3b.set(ylabel="fraction", ylim=(0, 1.05))
     h1, l1 = ax3.get_legend_handles_labels()
     h2, l2 = ax3b.get_legend_handles_labels()
-    ax3.legend(h1 + h2, l1 + l2, fontsize=7, loc="center left")
+    ax3.legend(h1 + h2, l1 + l2, **below)
     save_figure(fig, out / "fig1.png", tight=True)
 
 
