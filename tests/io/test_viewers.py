@@ -59,6 +59,8 @@ def test_ovito_reads_back_disks_walls_and_the_force_network(packing, ensemble, t
     assert np.allclose(pos[disk][order, 1], p.y, rtol=0, atol=1e-13)
     assert np.allclose(np.asarray(parts["Radius"])[disk][order], p.r, rtol=1e-7, atol=0)
     assert np.array_equal(np.asarray(parts["rattler"])[disk][order].astype(bool), p.rattlers())
+    # the disks' spheres are see-through in OVITO's default view: the bonds inside show
+    assert np.allclose(np.asarray(parts["Transparency"])[disk], 0.6)
     # the cell is the box: x periodic over the width, y between the plates
     cell = np.asarray(data.cell[...])
     assert cell[0, 0] == p.width and tuple(data.cell.pbc[:2]) == (True, False)

@@ -6,8 +6,9 @@ given an :class:`~forcespace.model.ensemble.Ensemble`, each contact's mean and s
 over the samples) into a directory, in formats both programs read natively:
 
 OVITO (``ovito``)
-    ``packing.dump``: a LAMMPS text dump (``ITEM: ATOMS id type x y z radius rattler
-    body``) with the box as the simulation cell (x periodic or walled, y between the
+    ``packing.dump``: a LAMMPS text dump (``ITEM: ATOMS id type x y z radius transparency
+    rattler body``; the disks' spheres ``DISK_TRANSPARENCY`` see-through, so that OVITO's
+    default view shows the bonds inside them) with the box as the simulation cell (x periodic or walled, y between the
     plates), and ``contacts.dump``: a LAMMPS *dump local* file, one row per contact, read
     into OVITO's bonds by the *Load trajectory* modifier (column names below, in
     ``OVITO_CONTACT_PROPERTIES``). Disks are particles 1..n (id = disk index + 1, type 1,
@@ -97,6 +98,9 @@ def _box_y(p):
     return ylo, yhi
 
 
+DISK_TRANSPARENCY = 0.6     # OVITO's Transparency of the disks' spheres (0 opaque, 1 unseen)
+
+
 def ovito_particles(packing):
     """The particles of ``packing.dump`` and the bond ends of ``contacts.dump``:
     (table dict of (n + w,) columns id, type, x, y, radius, rattler, body; id1 (Nc,),
@@ -161,8 +165,11 @@ def write_ovito(packing, directory, ensemble=None) -> list[Path]:
     bounds = ("pp" if p.periodic_x else "ff") + " ff pp"
     box = f"ITEM: BOX BOUNDS {bounds}\n0 {p.width!r}\n{ylo!r} {yhi!r}\n-0.5 0.5\n"
     head = f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{table['id'].size}\n{box}"
-    names = ["id", "type", "x", "y", "z", "radius", "rattler", "body"]
+    names = ["id", "type", "x", "y", "z", "radius", "transparency", "rattler", "body"]
     table["z"] = np.zeros(table["id"].size)
+    # disks half transparent: OVITO draws them as spheres, which hide the force bonds
+    # between their centres in its default view (issue 47)
+    table["transparency"] = np.where(table["type"] == WALL_POINT, 0.0, DISK_TRANSPARENCY)
     (d / "packing.dump").write_text(head + "ITEM: ATOMS " + " ".join(names) + "\n"
                                     + _rows([table[c] for c in names]))
     ct = contact_table(p, ensemble)
