@@ -46,7 +46,7 @@ def test_pip_install_then_pack_study_and_readme_example(tmp_path):
     code = re.search(r"## Python API\s+```python\n(.*?)```", text, re.S).group(1)
     out = _run([bin_ / "python", "-c", code], work, env=env).stdout
     assert re.search(r"dim S = [1-9]\d*, eta = ", out)
-    assert (work / "quick_sample.png").is_file()
+    assert (work / "quick_ensemble.png").is_file()
     # no file of the installed package was written by the runs (results go to the cwd)
     site = next(env_dir.glob("lib/python*/site-packages/forcespace"))
     assert not [p for p in site.rglob("*") if p.suffix in (".h5", ".csv", ".png")]
