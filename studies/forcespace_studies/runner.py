@@ -483,7 +483,10 @@ def _probe_scheduler(address: str, timeout: float) -> None:
     from distributed.comm import connect
 
     async def handshake():
-        comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout)
+        # the outer bound is wider than connect's own: a refused port is retried by
+        # connect until its timeout and must end as its OSError (cannot reach), not as
+        # the outer TimeoutError (under load the two raced: "accepted the connection")
+        comm = await asyncio.wait_for(connect(address, timeout=timeout), 2 * timeout + 1)
         await comm.close()
 
     with ThreadPoolExecutor(1) as pool:

@@ -487,7 +487,6 @@ def check_packing(p: Packing, source="packing") -> Packing:
                 got=(int(idx.min()), int(idx.max())))
     if np.any(p.a == p.b):
         bad("contacts/bodies", "a contact must join two different bodies")
-    _check_unique_contacts(p, bad)
     for name in ("normal", "point", "gap", "fn", "ft"):
         if not np.all(np.isfinite(getattr(p, name))):
             bad(f"contacts/{name}" if name not in ("fn", "ft") else "forces",
@@ -495,6 +494,7 @@ def check_packing(p: Packing, source="packing") -> Packing:
     if nc and np.abs(np.hypot(p.normal[:, 0], p.normal[:, 1]) - 1.0).max() > \
             config.UNIT_NORMAL_TOL:
         bad("contacts/normal", "must be unit vectors")
+    _check_unique_contacts(p, bad)
     if np.any((p.b == WALL) | ((p.a == WALL) & (p.b < 0))):
         bad("contacts/bodies", "a WALL (-5) contact has the wall as body a and a disk as b")
     if p.external is not None:
@@ -508,10 +508,14 @@ def check_packing(p: Packing, source="packing") -> Packing:
 
 def _check_unique_contacts(p: Packing, bad) -> None:
     """Each contact once: the same two bodies (in either order) through the same periodic
-    image twice would count one contact's forces twice (dim S grew from 6 to 8)."""
+    image twice would count one contact's forces twice (dim S grew from 6 to 8). A
+    measured frame's WALL contacts are told apart by their normal (a disk may touch
+    several wall segments)."""
     a, b, img = (np.asarray(v, np.int64) for v in (p.a, p.b, p.image))
     swap = a > b
-    key = np.stack([np.where(swap, b, a), np.where(swap, a, b), np.where(swap, -img, img)], 1)
+    wall = (a == WALL)[:, None] * np.round(np.asarray(p.normal, float).reshape(-1, 2) * 1e9)
+    key = np.column_stack([np.where(swap, b, a), np.where(swap, a, b),
+                           np.where(swap, -img, img), wall.astype(np.int64)])
     _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
     if np.any(counts > 1):
         k = int(first[np.argmax(counts > 1)])
