@@ -94,6 +94,18 @@ def static_solve(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
     return packing_of(rn, rt), stats
 
 
+def _check_none_loose(loaded, c, noun: str) -> None:
+    """NumericalError if a body with a load (``loaded``, (n,) bool) is in no contact of
+    the frozen list ``c``: the configuration is not static."""
+    touched = np.zeros(loaded.shape[0] + N_WALL_SLOTS, dtype=bool)
+    touched[c.a] = touched[c.b] = True
+    loose = np.flatnonzero(loaded & ~touched[:loaded.shape[0]])
+    if loose.size:
+        raise NumericalError(f"{noun} {loose[0]} feels gravity but touches nothing: the "
+                             "configuration is not static (raise jamming.window or lower "
+                             "jamming.velocity_tol)")
+
+
 def frozen_disks(setup: Setup, bodies: Bodies):
     """The frozen network of the disks' configuration: (FrozenContacts, rn, rt warm
     started from the dynamics' last forces, the function (rn, rt) -> Packing); pairs with
@@ -102,13 +114,7 @@ def frozen_disks(setup: Setup, bodies: Bodies):
     ints, floats = detect_contacts(bodies.x, bodies.y, bodies.r, kernel_box(setup.boundary),
                                    setup.jamming.contact_gap_tol)
     c = contact_list(ints, floats, bodies.r, setup.physics.mu, setup.physics.plate_mu)
-    touched = np.zeros(n + N_WALL_SLOTS, dtype=bool)
-    touched[c.a] = touched[c.b] = True
-    loose = np.flatnonzero((bodies.fy_ext[:n] != 0) & ~touched[:n])
-    if loose.size:
-        raise NumericalError(f"disk {loose[0]} feels gravity but touches nothing: the "
-                             "configuration is not static (raise jamming.window or lower "
-                             "jamming.velocity_tol)")
+    _check_none_loose(bodies.fy_ext[:n] != 0, c, "disk")
     if bodies.contacts is not None:  # start from the forces the dynamics ended with
         rn, rt = warm_start(c.keys, bodies.contacts)
         rt[c.mu == 0.0] = 0.0
@@ -130,13 +136,7 @@ def frozen_spheres(setup: Setup, bodies: SphereBodies):
     ints, floats = detect_contacts3(bodies.pos, bodies.r, kernel_box(setup.boundary),
                                     setup.jamming.contact_gap_tol)
     c = contact_list3(ints, floats, bodies.r, setup.physics.mu, setup.physics.plate_mu)
-    touched = np.zeros(n + N_WALL_SLOTS, dtype=bool)
-    touched[c.a] = touched[c.b] = True
-    loose = np.flatnonzero((bodies.load[:n] != 0) & ~touched[:n])
-    if loose.size:
-        raise NumericalError(f"sphere {loose[0]} feels gravity but touches nothing: the "
-                             "configuration is not static (raise jamming.window or lower "
-                             "jamming.velocity_tol)")
+    _check_none_loose(bodies.load[:n] != 0, c, "sphere")
     if bodies.contacts is not None:  # start from the forces the dynamics ended with
         rn, rt = warm_start3(c.keys, c.normal, bodies.contacts)
         rt[c.mu == 0.0] = 0.0
