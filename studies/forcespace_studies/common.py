@@ -59,6 +59,24 @@ def shared_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_fr
         return read_packing(path), time.perf_counter() - t0
 
 
+def kept_packing(out, scene: str, mu: float, seed: int, n_disks: int, reuse_from=()):
+    """The packing (scene, mu, seed, n_disks) a study directory ``out`` (or a sibling in
+    ``reuse_from``) already keeps, or None. Never jams: summaries (and ``--report-only``)
+    draw from what the tasks left behind and say so when a packing is not there."""
+    path = packing_path(out, scene, mu, seed, n_disks)
+    for where in [Path(out).parent / other / "packings" / path.name for other in reuse_from] + [path]:
+        if where.is_file():
+            return reused(where)
+    return None
+
+
+def no_packing_panel(ax, what: str) -> None:
+    """An axes that says the packing it would draw is not kept in the study directory."""
+    ax.axis("off")
+    ax.text(0.5, 0.5, f"{what}: the packing is not in this directory\n(run the study's task "
+            "again to draw it)", ha="center", va="center", fontsize=8)
+
+
 def reused(path, overrides=None):
     """The kept packing at ``path``, checked against the scene ``overrides`` (``jam``
     style) it must have been jammed with (its stored scene text); InputError names the

@@ -31,7 +31,7 @@ from forcespace.extend import decompose, distance_to_S, extreme_pair
 from .runner import Task
 
 from . import fig1, stats
-from .common import shared_packing
+from .common import kept_packing, no_packing_panel, shared_packing
 from .report import (AS_HYPOTHESIS, RULES_VERSION, Verdict, failed_tasks_note, failures_per_mu,
                      write_csv, write_section)
 
@@ -554,7 +554,10 @@ def _draw_examples(rows, out) -> bool:
     for ax, target in zip(fig.subplots(1, 2), (0.1, 0.5)):
         r = min(cand, key=lambda r: (abs(np.log(r["mu"] / target)), r["seed"]))
         par = r["params"]
-        p, _ = shared_packing(out, par["scene"], r["mu"], r["seed"], par["n_disks"], REUSE)
+        p = kept_packing(out, par["scene"], r["mu"], r["seed"], par["n_disks"], REUSE)
+        if p is None:               # a summary never jams (--report-only runs nothing)
+            no_packing_panel(ax, f"mu = {r['mu']:.3g}, seed {r['seed']}")
+            continue
         prob = fs.slice_problem(p, par["slice_height"])
         an = fs.ForceSpace().compute(prob)
         dec = decompose(prob, an, p)

@@ -34,7 +34,8 @@ import forcespace as fs
 from .runner import Task
 
 from . import stats
-from .common import SAMPLERS, packing_path, run_samplers, sampler, shared_packing
+from .common import (SAMPLERS, kept_packing, no_packing_panel, run_samplers, sampler,
+                     shared_packing)
 
 QUICK = dict(scene="quick", n_disks=30, slice_height=12.0, mu=0.01, seeds=(1, 2, 3),
              cap=800, max_seconds=None)
@@ -473,12 +474,10 @@ def _section_panel(ax, row, out) -> None:
     """The inset: the cross-section of S through the first packing's jammed network
     (packings are not kept with committed results: without it, the panel says so)."""
     par = row["params"]
-    if not packing_path(out, par["scene"], par["mu"], par["seed"], par["n_disks"]).is_file():
-        ax.axis("off")
-        ax.text(0.5, 0.5, "cross-section: the packing is not in this directory\n(run the "
-                "study's task again to draw it)", ha="center", va="center", fontsize=8)
+    p = kept_packing(out, par["scene"], par["mu"], par["seed"], par["n_disks"])
+    if p is None:
+        no_packing_panel(ax, "cross-section")
         return
-    p, _ = shared_packing(out, par["scene"], par["mu"], par["seed"], par["n_disks"])
     sec = fs.Section(n=121, seed=row["seed"]).compute(fs.slice_problem(p, par["slice_height"]))
     sec.plot(ax, title=f"cross-section of S, seed {row['seed']} (dim S = {row['dim_S']})")
 

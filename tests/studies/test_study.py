@@ -246,7 +246,7 @@ def test_report_sections_are_ordered_and_verdicts_checked(tmp_path):
 
 
 @pytest.mark.slow
-def test_fig2_quick_clusters_per_packing(tmp_path, capsys):
+def test_fig2_quick_clusters_per_packing(tmp_path, capsys, monkeypatch):
     from forcespace_studies.report import RULES_VERSION
     out = tmp_path / "fig2"
     summary = run_quick("fig2", out, capsys)
@@ -281,6 +281,21 @@ def test_fig2_quick_clusters_per_packing(tmp_path, capsys):
     assert doc["rules_version"] == RULES_VERSION
     assert [v["kind"] for v in doc["verdicts"]][:3] == ["paper"] * 3
     assert all(v["rule"] for v in doc["verdicts"])
+    # --report-only runs nothing: with the packings gone the summary jams none again, the
+    # example panels say the packing is not there, and the verdicts stay
+    import shutil
+
+    from forcespace_studies import common
+
+    shutil.rmtree(out / "packings")
+
+    def no_jam(*a, **k):
+        raise AssertionError("a summary jammed a packing")
+    monkeypatch.setattr(common, "jam", no_jam)
+    assert main(["study", "fig2", "--quick", "-o", str(out), "--report-only", "--quiet"]) == 0
+    again = json.loads(capsys.readouterr().out)
+    assert again["verdicts"] == summary["verdicts"] and "fig2.png" in again["figures"]
+    assert not (out / "packings").exists()
 
 
 def _fig2_row(task, mu, dim, domains, slice_contacts=200, dim_again=None, **kw):
