@@ -714,16 +714,62 @@ def _eta_panel(ax, rows, by_n, fits, mus, scope, win):
     ax.legend(fontsize=6, loc="best")
 
 
+LAW_STYLE = {"saturating": "-", "logarithmic": "--", "power": ":"}
+LAWS_DRAWN_TO = 20000       # the laws are drawn beyond the largest size measured, to here
+
+
+def _laws_panel(ax, by_n, fits, mus, scope, win):
+    """The billiard walk's mean eta per size (95 % interval) and the three laws of
+    :func:`compare_models` fitted to its packings, extrapolated to LAWS_DRAWN_TO disks (the
+    shaded range has no data: it shows where the laws part, not a prediction)."""
+    n_max = max(r["n"] for r in by_n)
+    key = _eta_key(scope, "billiard")
+    lows = [r[f"{key}_lo"] for r in by_n if r.get(f"{key}_mean") and r[f"{key}_lo"] > 0]
+    for i, mu in enumerate(mus):
+        c = f"C{i}"
+        b = [r for r in by_n if r["mu"] == mu and r.get(f"{key}_mean")]
+        if not b:
+            continue
+        x = np.array([r["n"] for r in b], float)
+        m = np.array([r[f"{key}_mean"] for r in b])
+        err = [m - [r[f"{key}_lo"] for r in b], [r[f"{key}_hi"] for r in b] - m]
+        ax.errorbar(x, m, yerr=err, fmt="o", color=c, ms=4, capsize=2, lw=1,
+                    label=rf"$\mu$ = {mu:g}: billiard mean, 95 % CI")
+        models = fits[("billiard", scope, mu)].get("models") or {}
+        if "saturating" not in models:
+            continue
+        grid = np.geomspace(x.min(), LAWS_DRAWN_TO, 200)
+        daic = {"saturating": 0.0, "power": models["aic_power_minus_saturating"],
+                "logarithmic": models["aic_log_minus_saturating"]}
+        for law, ls in LAW_STYLE.items():
+            ax.plot(grid, np.exp(law_log_eta(models, law, grid)), ls, color=c, lw=1,
+                    label=rf"$\mu$ = {mu:g}: {law} law, $\Delta$AIC {daic[law]:+.1f}")
+    ax.axvspan(n_max, LAWS_DRAWN_TO, color="0.92", lw=0, zorder=0)
+    ax.text(np.sqrt(n_max * LAWS_DRAWN_TO), 0.98, "no data:\nlaws extrapolated",
+            transform=ax.get_xaxis_transform(), ha="center", va="top", fontsize=7)
+    where = ("whole scaled slice" if scope == "slice" else
+             f"fixed window {win[0]:g} R x {win[1]:g} R")
+    ax.set(xscale="log", yscale="log", xlabel="n (disks in the box)",
+           ylabel=r"$\eta$ (dimensionless)",
+           title=f"three laws fitted to the billiard packings, {where}\n"
+                 "(least squares on log eta; $\Delta$AIC against the saturating law)")
+    if lows:                    # room below the data for the legend
+        ax.set_ylim(bottom=min(lows) / 8)
+    ax.legend(fontsize=5.5, loc="lower right", ncol=2)
+
+
 def _figure(out, rows, by_n, fits, mus) -> None:
     from matplotlib.figure import Figure
 
     from forcespace.extend import save_figure
 
     win = (rows[0]["window_width"], rows[0]["window_height"])
-    fig = Figure(figsize=(13, 9.5))
-    (a1, a2), (a3, a4) = fig.subplots(2, 2)
+    fig = Figure(figsize=(13, 14))
+    (a1, a2), (a5, a6), (a3, a4) = fig.subplots(3, 2)
     _eta_panel(a1, rows, by_n, fits, mus, "slice", win)
     _eta_panel(a2, rows, by_n, fits, mus, "window", win)
+    _laws_panel(a5, by_n, fits, mus, "slice", win)
+    _laws_panel(a6, by_n, fits, mus, "window", win)
     for i, mu in enumerate(mus):
         c = f"C{i}"
         mine = [b for b in by_n if b["mu"] == mu]
