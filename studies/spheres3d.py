@@ -3,13 +3,14 @@
 Usage::
 
     nice python studies/spheres3d.py [--mu 0 0.01 0.1 1] [--seeds 1 2 3 4 5] [--n 500]
-        [--workers 2] [--out studies/results/spheres3d]
+        [--workers 2] [--out studies/results/spheres3d] [--scene paper3d]
 
 ``--n`` other than 500 scales the box with it (``forcespace pack --n N --scale-box``: the
 lateral extents by (n/500)^(1/3), the plate's load and mass by its area), so a smaller
 study is the same protocol in a smaller box.
 
-Every packing is ``forcespace pack paper3d --mu MU --seed SEED`` (500 spheres, radii
+Every packing is ``forcespace pack paper3d --mu MU --seed SEED`` (``--scene
+paper3d_certified``: the same with the jam ended by an exact static certificate) (500 spheres, radii
 uniform in [R, 2R], a box periodic in x and y, compressed along z by a constant force on
 the top plate, no gravity; then the static solve to residual <= 1e-10). Each is written
 to ``OUT/packings/mu{MU}_s{SEED}.h5`` with its compression checkpoint beside it while it
@@ -30,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 
-def jam_one(mu: float, seed: int, n: int, out: str) -> dict:
+def jam_one(mu: float, seed: int, n: int, out: str, scene_name: str = "paper3d") -> dict:
     """Jam one packing (resuming its checkpoint) and return its row."""
     import forcespace as fs
     from forcespace.extend import build_packing
@@ -41,7 +42,7 @@ def jam_one(mu: float, seed: int, n: int, out: str) -> dict:
         p = fs.read_packing(path)
         cpu = p.meta.get("cpu_seconds", float("nan"))
     else:
-        scene = fs.load_scene("paper3d").with_overrides(
+        scene = fs.load_scene(scene_name).with_overrides(
             **{"physics.mu": float(mu), "scene.seed": int(seed)})
         if n != scene["disks.n"]:
             scene, _ = scene.scaled_to(int(n))
@@ -59,6 +60,8 @@ def jam_one(mu: float, seed: int, n: int, out: str) -> dict:
             "max_overlap": s["max_overlap"], "steps": s["steps"],
             "static_restart": s.get("static_restart", ""),
             "static_retries": s.get("static_retries", 0), "cpu_seconds": cpu,
+            "scene": p.scene_name, "jam_end": p.meta.get("jam_end", ""),
+            "static_network": p.meta.get("static_network", ""),
             "file": str(path.relative_to(Path(out)))}
 
 
@@ -90,6 +93,9 @@ def main(argv=None) -> int:
     ap.add_argument("--n", type=int, default=500)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default="studies/results/spheres3d")
+    ap.add_argument("--scene", default="paper3d",
+                    help="the bundled scene (paper3d, or paper3d_certified: the jam ended "
+                         "by an exact static certificate)")
     args = ap.parse_args(argv)
     out = Path(args.out)
     (out / "packings").mkdir(parents=True, exist_ok=True)
@@ -100,7 +106,7 @@ def main(argv=None) -> int:
     todo = [(mu, seed) for seed in args.seeds for mu in args.mu if (mu, seed) not in done]
     print(f"{len(todo)} packings to jam ({len(done)} done)", file=sys.stderr, flush=True)
     with ProcessPoolExecutor(args.workers) as pool:
-        jobs = {pool.submit(jam_one, mu, seed, args.n, str(out)): (mu, seed)
+        jobs = {pool.submit(jam_one, mu, seed, args.n, str(out), args.scene): (mu, seed)
                 for mu, seed in todo}
         for fut in as_completed(jobs):
             row = fut.result()

@@ -140,3 +140,92 @@ def test_the_least_total_change_keeps_more_of_the_dynamics_forces_unchanged():
         kept[norm], total[norm] = (change <= 1e-6 * scale).mean(), change.sum()
     assert total["l1"] <= total["l2"] * (1 + 1e-6)
     assert kept["l1"] > 0.2 > 0.1 > kept["l2"]
+
+
+# ---- spheres: Coulomb as second-order cones (issue 43) ------------------------------------
+
+def sphere_on_three(mu, push):
+    """A sphere resting on three fixed ones (normals at sin(theta) = sqrt(2/3) to the
+    horizontal) under a load (push, 0, -P): its SphereStaticsProblem and the contact
+    normals (3, 3) (from the supports to the top sphere)."""
+    from forcespace.model.sphere_packing import SpherePacking
+    from forcespace.model.sphere_problem import build_sphere_problem
+    d = 2 / np.sqrt(3)
+    base = [(d * np.cos(a), d * np.sin(a), 1.0) for a in np.deg2rad([90, 210, 330])]
+    pos = np.array(base + [(0.0, 0.0, 1.0 + np.sqrt(4 - d * d))]) + (25.0, 25.0, 0.0)
+    p = SpherePacking.from_arrays(pos, np.ones(4), [0, 1, 2], [3, 3, 3], lateral=(50, 50),
+                                  mu=mu, fn=np.ones(3))
+    top = np.arange(4) == 3
+    prob = build_sphere_problem(p, top, (), "hand", support_mask=~top,
+                                rattlers=np.zeros(4, bool))
+    prob.b[0] -= push                      # b = -(loads): load +push along x, -P along z
+    prob.b[2] += 3.0
+    normals = (pos[3] - pos[:3]) / 2.0
+    return prob, normals
+
+
+@pytest.mark.parametrize("push, want", [(0.2, "static"), (2.0, "not static")])
+def test_a_frictionless_sphere_on_three_is_static_exactly_when_its_forces_push(push, want):
+    # mu = 0: three normal forces balance the load alone, fn = N^-1 (-load); a sideways
+    # push beyond the cone of the normals would need a pulling contact: no network
+    from forcespace.engine.certificate import certify_spheres, least_change_spheres
+    prob, normals = sphere_on_three(0.0, push)
+    fn = np.linalg.solve(normals.T, [-push, 0.0, 3.0])
+    assert (fn.min() > 0) == (want == "static")
+    for cert, x in (certify_spheres(prob), least_change_spheres(prob)):
+        assert cert.status == want
+        if want == "static":
+            np.testing.assert_allclose(x[0::3], fn, rtol=1e-8)
+            assert x[1::3].max() == x[2::3].max() == 0.0 and cert.residual <= 1e-10
+
+
+@pytest.mark.parametrize("push, want", [(1.0, "static"), (1.5, "not static")])
+def test_friction_does_not_hold_a_sphere_on_three_past_its_tipping_push(push, want):
+    # the frictionless limit (fn of one support reaching 0 at push = 1.225 P / 3 ...) holds
+    # with mu = 1 too: past it the sphere rolls about the axis through the two other
+    # contacts, which do not slide, so no Coulomb cone resists (a kinematic mechanism)
+    from forcespace.engine.certificate import certify_spheres
+    prob, normals = sphere_on_three(1.0, push)
+    fn = np.linalg.solve(normals.T, [-push, 0.0, 3.0])
+    assert (fn.min() > 0) == (want == "static")
+    cert, x = certify_spheres(prob)
+    assert cert.status == want
+    if x is not None:
+        assert np.abs(prob.A @ x - prob.b).max() <= 1e-9
+        assert prob.cone_excess(x).max() <= 1e-9
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.5])
+def test_a_sphere_wedged_between_two_hangs_on_its_cones(mu):
+    # a sphere between two fixed ones on a horizontal line, load P down: only friction
+    # carries it, P/2 along z at each contact, and the network nearest the start (fn = 1)
+    # presses with the least fn the cones allow, P / (2 mu) (> 1 here)
+    from forcespace.engine.certificate import certify_spheres, least_change_spheres
+    from forcespace.model.sphere_packing import SpherePacking
+    from forcespace.model.sphere_problem import build_sphere_problem
+    pos = np.array([(23.0, 25.0, 5.0), (27.0, 25.0, 5.0), (25.0, 25.0, 5.0)])
+    p = SpherePacking.from_arrays(pos, np.ones(3), [0, 2], [2, 1], lateral=(50, 50), mu=mu,
+                                  fn=np.ones(2))
+    mid = np.arange(3) == 2
+    prob = build_sphere_problem(p, mid, (), "hand", support_mask=~mid,
+                                rattlers=np.zeros(3, bool))
+    prob.b[2] += 3.0
+    for cert, x in (certify_spheres(prob), least_change_spheres(prob)):
+        assert cert.status == ("static" if mu else "not static")
+        if mu:
+            # (an interior point meets a cone's boundary to ~sqrt of its tolerance)
+            np.testing.assert_allclose(x[0::3], 3.0 / (2 * mu), rtol=1e-4)
+            _, ft = prob.to_packing_forces(x)                     # by balance
+            np.testing.assert_allclose(np.abs(ft[:, 2]), 1.5, rtol=1e-9)
+            np.testing.assert_allclose(ft[:, :2], 0.0, atol=1e-9)
+            assert prob.cone_excess(x).max() <= 1e-9
+
+
+def test_a_certified_sphere_jam_ends_by_its_certificate_and_is_static():
+    scene = load_scene("quick3d").with_overrides(**{"physics.mu": 0.3, "disks.n": 30,
+                                                  "jamming.certificate_speed": 1e-3})
+    p = build_packing(scene, show_progress=False)
+    assert p.meta["jam_end"] == "certificate" and p.meta["certificates_tried"] >= 1
+    assert p.meta["static_network"] == "certificate"
+    assert p.equilibrium_residual() <= scene["jamming.static_tolerance"]
+    assert p.coulomb_violation() <= 1e-12

@@ -227,7 +227,7 @@ def test_a_rotated_gas_moves_as_the_rotated_gas():
 
 @pytest.mark.parametrize("key, value, words", [
     ("box.periodic_x", False, "periodic in x and y"),
-    ("jamming.certificate_speed", 1e-3, "certificate is written for disks")])
+])
 def test_a_sphere_scene_refuses_in_one_line_what_exists_for_disks_only(key, value, words):
     from forcespace.errors import InputError
     with pytest.raises(InputError, match=words):

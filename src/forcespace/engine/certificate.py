@@ -234,3 +234,97 @@ def in_cones(rn, rt, mu):
     rn = np.maximum(rn, 0.0)
     lim = mu * rn
     return rn, np.clip(rt, -lim, lim)
+
+
+def _clarabel(P, q, A, b, cones, tol: float):
+    """Clarabel's solution of min x'Px/2 + q'x over {A x + s = b, s in cones} to the
+    relative tolerance ``tol``: (status, x or None, iterations, CPU seconds)."""
+    import time
+
+    import clarabel
+
+    s = clarabel.DefaultSettings()
+    s.verbose = False
+    s.max_threads = 1
+    for name in ("tol_feas", "tol_gap_abs", "tol_gap_rel", "tol_infeas_abs",
+                 "tol_infeas_rel"):
+        setattr(s, name, tol)
+    t0 = time.process_time()
+    sol = clarabel.DefaultSolver(P, q, A.tocsc(), b, cones, s).solve()
+    seconds = time.process_time() - t0
+    status = str(sol.status).split(".")[-1]
+    if status in ("Solved", "AlmostSolved"):
+        status = "static"
+    elif status in ("PrimalInfeasible", "AlmostPrimalInfeasible"):
+        status = "not static"
+    else:
+        status = "undecided"
+    x = np.asarray(sol.x, float) if status == "static" else None
+    return status, x, int(sol.iterations), seconds
+
+
+def certify_spheres(problem, tol: float = 1e-10, norm: str = "l2", zero=None):
+    """:func:`certify` for spheres: does the frozen sphere network ``problem`` (a
+    :class:`~forcespace.model.sphere_problem.SphereStaticsProblem`, S of the plate
+    problem: equilibrium rows, Coulomb as second-order cones, :func:`forcespace.space.conic
+    .cone_constraints`) admit a static network? The point of S nearest to the dynamics'
+    forces ``problem.x_jammed``: ``norm`` "l2" Euclidean (a second-order-cone QP), "l1"
+    the least total change sum |x - x_jammed| over the columns (fn, f1, f2) (linear
+    objective); ``zero`` (columns) held at 0. Solved in units of <Fn> (``tol``
+    relative). Returns (Certificate with rn, rt None, x (3m,) [F0] or None)."""
+    import clarabel
+
+    from ..space.conic import cone_constraints
+
+    scale = problem.force_scale if problem.force_scale > 0 else 1.0
+    unit = problem.scaled(1.0 / scale)
+    m = unit.n_columns
+    A, b, cones = cone_constraints(unit)
+    if zero is not None and len(zero):
+        A = sp.vstack([A, sp.identity(m, format="csr")[np.asarray(zero)]])
+        b = np.concatenate([b, np.zeros(len(zero))])
+        cones = cones + [clarabel.ZeroConeT(len(zero))]
+    if norm == "l1":      # y = (x, u, v): x - u + v = x_jammed, u, v >= 0, min sum(u + v)
+        eye = sp.identity(m, format="csr")
+        A = sp.vstack([sp.hstack([A, sp.csr_matrix((A.shape[0], 2 * m))]),
+                       sp.hstack([eye, -eye, eye]),
+                       sp.hstack([sp.csr_matrix((2 * m, m)), -sp.identity(2 * m)])])
+        b = np.concatenate([b, unit.x_jammed, np.zeros(2 * m)])
+        cones = cones + [clarabel.ZeroConeT(m), clarabel.NonnegativeConeT(2 * m)]
+        P, q = sp.csc_matrix((3 * m, 3 * m)), np.concatenate([np.zeros(m), np.ones(2 * m)])
+    else:
+        P, q = sp.identity(m, format="csc"), -unit.x_jammed
+    status, y, iterations, seconds = _clarabel(P, q, A, b, cones, tol)
+    if y is None:
+        return Certificate(status, None, None, np.inf, iterations, seconds), None
+    x = y[:m] * scale
+    x[problem.fixed_columns()] = 0.0
+    eq = np.abs(problem.A @ x - problem.b).max(initial=0.0)
+    return Certificate(status, None, None, float(eq / scale), iterations, seconds), x
+
+
+def least_change_spheres(problem, tol: float = 1e-10, support_tol: float = 1e-7):
+    """:func:`least_change_network` for spheres: the static network of ``problem`` (a
+    SphereStaticsProblem) that changes the dynamics' forces ``x_jammed`` least in total
+    (L1, to 1e-8), then the Euclidean projection of that point to ``tol`` with the
+    contacts off its support (fn <= ``support_tol`` <Fn>) held at exactly zero; falls back
+    to the L1 point where the support admits no network. Returns (Certificate, x (3m,)
+    [F0] or None)."""
+    first, x1 = certify_spheres(problem, max(tol, 1e-8), norm="l1")
+    if x1 is None:
+        return first, None
+    scale = problem.force_scale if problem.force_scale > 0 else 1.0
+    off = np.flatnonzero(x1[0::3] <= support_tol * scale)
+    zero = np.concatenate([3 * off, 3 * off + 1, 3 * off + 2])
+    exact, x2 = certify_spheres(_with_target(problem, x1), tol, "l2", zero)
+    if x2 is None:
+        return first, x1
+    return exact._replace(iterations=first.iterations + exact.iterations,
+                          seconds=first.seconds + exact.seconds), x2
+
+
+def _with_target(problem, x):
+    """``problem`` with its target forces x_jammed replaced by ``x`` (3m,) [F0]."""
+    import dataclasses
+
+    return dataclasses.replace(problem, x_jammed=np.asarray(x, float))

@@ -28,6 +28,7 @@ from .bodies import Bodies, certificate_settings, kernel_box, step_settings, vel
 from .certificate import CertificateSettings, certify, frozen_system
 from .interrupts import InterruptFlag
 from .records import ContactForces, StepStats
+from .static import sphere_certificate
 from .step import run_steps, run_steps3
 from ..streams import window_seed
 
@@ -240,10 +241,13 @@ def certified(setup: Setup, bodies: Bodies, run: Run, settings: CertificateSetti
     """Whether the bodies' configuration admits a static network (an interior-point
     certificate on its closed contacts, :mod:`forcespace.engine.certificate`)."""
     t0 = time.process_time()
-    _c, _image, system, rn0, rt0 = frozen_system(
-        bodies, kernel_box(setup.boundary), setup.physics.mu, setup.physics.plate_mu,
-        settings.gap_tol, run.contacts)
-    cert = certify(system, rn0, rt0, settings.tol)
+    if bodies.dim == 3:
+        cert = sphere_certificate(setup, bodies, run.contacts, settings.tol)
+    else:
+        _c, _image, system, rn0, rt0 = frozen_system(
+            bodies, kernel_box(setup.boundary), setup.physics.mu, setup.physics.plate_mu,
+            settings.gap_tol, run.contacts)
+        cert = certify(system, rn0, rt0, settings.tol)
     run.certificates += 1
     run.certificate_seconds += time.process_time() - t0
     return cert.status == "static"

@@ -20,7 +20,8 @@ from ..model.walls import (N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP, kernel_body_inde
 from ..progress import progress
 from ..model.sphere_packing import SpherePacking
 from .bodies import Bodies, SphereBodies, certificate_settings, kernel_box
-from .certificate import Certificate, frozen_system, in_cones, least_change_network
+from .certificate import (Certificate, certify_spheres, frozen_system, in_cones,
+                          least_change_network, least_change_spheres)
 from .contacts import detect_contacts, detect_contacts3
 from .frozen import FrozenContacts, FrozenContacts3, relax
 from .interrupts import InterruptFlag
@@ -195,9 +196,11 @@ def certified_solve(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
     :func:`static_solve` from there (an exact static network is a fixed point of its
     sweeps, so the polish only removes the solver's round-off). Returns
     ((packing, statistics) or None when the configuration is not static, the
-    :class:`~forcespace.engine.certificate.Certificate`). Disks only (the scene refuses
-    ``jamming.certificate_speed`` > 0 with ``box.dimension = 3``).
+    :class:`~forcespace.engine.certificate.Certificate`). Spheres:
+    :func:`_certified_spheres`.
     """
+    if bodies.dim == 3:
+        return _certified_spheres(setup, bodies, seed, show_progress, interrupt)
     settings = certificate_settings(setup)
     c, _image, system, rn0, rt0 = frozen_system(
         bodies, kernel_box(setup.boundary), setup.physics.mu, setup.physics.plate_mu,
@@ -254,15 +257,75 @@ def exact_sphere_network(setup: Setup, packing: SpherePacking):
     packing's forces, by the second-order-cone program of
     :func:`forcespace.space.conic.nearest_admissible` (Clarabel); (fn (Nc,), ft (Nc, 3))
     [F0], or (None, None) when S is empty."""
-    from ..model.sphere_problem import sphere_full_problem, sphere_plate_problem
     from ..space.conic import nearest_admissible
 
-    build = sphere_plate_problem if setup.boundary.top is not None else sphere_full_problem
-    problem = build(packing, gap_tol=setup.jamming.contact_gap_tol)
+    problem = sphere_problem_of(setup, packing)
     res = nearest_admissible(problem, target=problem.x_jammed)
     if not res.feasible:
         return None, None
     return problem.to_packing_forces(res.x)
+
+
+def sphere_problem_of(setup: Setup, packing: SpherePacking, rattlers=None):
+    """S of a frozen sphere configuration as the setup loads it: the plate problem under a
+    load-controlled plate, else the full one, on the contacts with gap at most
+    ``jamming.contact_gap_tol`` (a SphereStaticsProblem; ``rattlers`` (n,) bool: the
+    spheres left out, default the packing's)."""
+    from ..model.sphere_problem import sphere_full_problem, sphere_plate_problem
+
+    build = sphere_plate_problem if setup.boundary.top is not None else sphere_full_problem
+    return build(packing, gap_tol=setup.jamming.contact_gap_tol, rattlers=rattlers)
+
+
+def untouched_spheres(setup: Setup, packing: SpherePacking) -> np.ndarray:
+    """(n,) bool: spheres in no contact with gap <= ``jamming.contact_gap_tol`` (the only
+    ones a geometric certificate may leave out: no force can reach them)."""
+    closed = np.asarray(packing.gap) <= setup.jamming.contact_gap_tol
+    touched = np.zeros(packing.n_spheres, bool)
+    for ends in (np.asarray(packing.a)[closed], np.asarray(packing.b)[closed]):
+        touched[ends[ends >= 0]] = True
+    return ~touched
+
+
+def sphere_certificate(setup: Setup, bodies: SphereBodies, forces: ContactForces,
+                       tol: float) -> Certificate:
+    """Whether the spheres' frozen configuration admits a static network: the
+    second-order-cone certificate (:func:`~forcespace.engine.certificate.certify_spheres`,
+    the network nearest to the dynamics' ``forces``) on every sphere that touches
+    anything (a sphere touching nothing needs no force when it feels no load; one that
+    feels a load is refused: "not static")."""
+    dynamics, bodies.contacts = bodies.contacts, forces
+    try:
+        _, rn, rt, packing_of = frozen_spheres(setup, bodies)
+    except NumericalError:          # a loaded sphere touches nothing
+        return Certificate("not static", None, None, np.inf, 0, 0.0)
+    finally:
+        bodies.contacts = dynamics
+    packing = packing_of(rn, rt)
+    problem = sphere_problem_of(setup, packing, untouched_spheres(setup, packing))
+    return certify_spheres(problem, tol)[0]
+
+
+def _certified_spheres(setup: Setup, bodies: SphereBodies, seed: int, show_progress,
+                       interrupt):
+    """:func:`certified_solve` for spheres: the least-change network of the
+    second-order-cone program (:func:`~forcespace.engine.certificate.least_change_spheres`)
+    polished by :func:`static_solve`."""
+    _, rn, rt, packing_of = frozen_spheres(setup, bodies)
+    packing = packing_of(rn, rt)
+    problem = sphere_problem_of(setup, packing, untouched_spheres(setup, packing))
+    cert, x = least_change_spheres(problem, certificate_settings(setup).tol)
+    if x is None:
+        return None, cert
+    fn, ft = problem.to_packing_forces(x)
+    dynamics = bodies.contacts
+    bodies.contacts = settled_forces(replace(packing, fn=np.maximum(fn, 0.0), ft=ft), setup)
+    try:
+        packing, stats = static_solve(setup, bodies, seed, show_progress, interrupt)
+    finally:
+        bodies.contacts = dynamics
+    stats.update(certificate_stats(cert))
+    return (packing, stats), cert
 
 
 def packing_view(setup: Setup, bodies: Bodies, c: Contacts, image):

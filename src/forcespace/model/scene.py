@@ -198,9 +198,6 @@ def _periodic_x(v, d):
 def _certificate_speed(v, d):
     if not v >= 0:
         return "must be >= 0 (0: never)"
-    if v > 0 and d["box.dimension"] == 3:
-        return ("must be 0 with box.dimension = 3 (the static certificate is written for "
-                "disks; a sphere jam ends at rest, by jamming.velocity_tol)")
     return None
 
 
@@ -342,7 +339,7 @@ SCHEMA: dict[str, Key] = {
                                 "window, relative to sqrt(F0 rbar/mbar) (F0: top-plate load "
                                 "or mean disk weight), below which the packing is at rest"),
     "jamming.certificate_speed": Key(float, 0.0, Relation(
-        ">= 0 (0: never); 0 with box.dimension = 3", _certificate_speed, ("box.dimension",)),
+        ">= 0 (0: never)", _certificate_speed, ("box.dimension",)),
                                      "a window whose mean speed (as jamming.velocity_tol) is "
                                      "at most this ends the jam if its configuration admits a "
                                      "static network (an exact interior-point certificate); "

@@ -263,18 +263,21 @@ def build_sphere_problem(p: SpherePacking, interior_mask, unknown_walls, kind, h
 
 
 def sphere_full_problem(packing: SpherePacking, gap_tol: float = np.inf, source: str = "",
-                        mu: float | None = None) -> SphereStaticsProblem:
-    """All non-rattler spheres; BOTTOM a support, TOP forces fixed loads."""
+                        mu: float | None = None, rattlers=None) -> SphereStaticsProblem:
+    """All non-rattler spheres; BOTTOM a support, TOP forces fixed loads (``rattlers``
+    (n,) bool: the spheres left out, default the packing's)."""
     return build_sphere_problem(packing, np.ones(packing.n_spheres, bool), (BOTTOM,), "full",
-                                gap_tol=gap_tol, source=source, mu=mu)
+                                gap_tol=gap_tol, source=source, mu=mu, rattlers=rattlers)
 
 
 def sphere_plate_problem(packing: SpherePacking, gap_tol: float = np.inf, source: str = "",
-                         mu: float | None = None) -> SphereStaticsProblem:
+                         mu: float | None = None, rattlers=None) -> SphereStaticsProblem:
     """All non-rattler spheres under the load-controlled plate: TOP contacts unknowns too
-    and one more row, ``sum of their fn = top_force`` (S of the packing protocol)."""
+    and one more row, ``sum of their fn = top_force`` (S of the packing protocol;
+    ``rattlers`` as :func:`sphere_full_problem`)."""
     prob = build_sphere_problem(packing, np.ones(packing.n_spheres, bool), (BOTTOM, TOP),
-                                "full_plate", gap_tol=gap_tol, source=source, mu=mu)
+                                "full_plate", gap_tol=gap_tol, source=source, mu=mu,
+                                rattlers=rattlers)
     top_cols = 3 * np.flatnonzero(np.asarray(packing.b)[prob.contacts] == TOP)
     row = sp.csr_matrix((np.ones(top_cols.size), (np.zeros(top_cols.size, int), top_cols)),
                         shape=(1, prob.n_columns))
