@@ -3,8 +3,9 @@
 # (studies/bench.py, then studies/accuracy_vs_time.py, which needs LIGGGHTS, then the engine's
 # CPU benchmarks against the old engine and pymunk, forcespace_studies.bench_engine, and the
 # exact analysis against the old code, forcespace_studies.bench_analysis, and a measured
-# 1000-particle frame read and checked, forcespace_studies.bench_measured; the samplers' cost
-# table is `python studies/sampler_cost.py studies/sampler_cost`, hours, see its note);
+# 1000-particle frame read and checked, forcespace_studies.bench_measured, and the sphere
+# jams at 500 and 2000 spheres with the per-contact update, forcespace_studies.bench_spheres;
+# the samplers' cost table is `python studies/sampler_cost.py studies/sampler_cost`, hours, see its note);
 # `make studies` runs every study at full size (days on a few cores; resumable: rerun
 # after any interruption; not run by CI) into studies/results/NAME and rebuilds
 # studies/REPORT.md from them. STUDY_ARGS passes options, e.g. --scheduler tcp://host:8786.
@@ -62,6 +63,7 @@ bench: install liggghts
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_analysis
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_certificate
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_measured
+	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_spheres
 
 STUDIES     := fig1 fig3 fig2 size pointforce selection measured
 STUDY_ARGS  ?=

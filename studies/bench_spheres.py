@@ -13,7 +13,8 @@ shuffled, no over-relaxation), once with the packing's friction and once with mu
 (frictionless: the tangential code never runs). CPU time (user + sys of this process)
 over the normal updates the kernel counts; the four cases interleaved round by round,
 the median over rounds reported (the machine is shared). Writes a JSON file with the
-per-round numbers, the packings and the code version, and prints a table.
+per-round numbers, the packings and the code version, and prints a table. (The same
+measurement runs in ``make bench``: ``forcespace_studies.bench_spheres``.)
 """
 from __future__ import annotations
 
@@ -21,41 +22,7 @@ import argparse
 import json
 import platform
 import sys
-import time
 from pathlib import Path
-
-import numpy as np
-
-
-def cases(disks_path: str, spheres_path: str) -> dict:
-    """{name: (frozen system, description)} of the four timed cases."""
-    import forcespace as fs
-    from forcespace.extend import frozen_contacts, frozen_contacts3
-
-    disks, spheres = fs.read_packing(disks_path), fs.read_packing(spheres_path)
-    if getattr(disks, "dim", 2) != 2 or getattr(spheres, "dim", 2) != 3:
-        raise SystemExit(f"{disks_path} must hold disks and {spheres_path} spheres")
-    out = {}
-    for mu, tag in ((None, "frictional"), (0.0, "frictionless")):
-        d = fs.plate_problem(disks, mu=mu)
-        s = fs.sphere_plate_problem(spheres, mu=mu)
-        out[f"disks {tag}"] = (frozen_contacts(d), f"{disks.n_disks} disks, "
-                               f"{d.n_contacts} contacts, mu {disks.mu if mu is None else mu:g}")
-        out[f"spheres {tag}"] = (frozen_contacts3(s), f"{spheres.n_spheres} spheres, "
-                                 f"{s.n_contacts} contacts, "
-                                 f"mu {spheres.mu if mu is None else mu:g}")
-    return out
-
-
-def time_case(system, sweeps: int, seed: int) -> tuple[float, int, int]:
-    """(CPU s, normal updates, tangential updates) of ``sweeps`` sweeps from zero forces."""
-    nc = system.mu.shape[0]
-    rn = np.zeros(nc)
-    rt = np.zeros((nc, 3)) if system.__class__.__name__.endswith("3") else np.zeros(nc)
-    motion = system.velocities(rn, rt)
-    t0 = time.process_time()
-    st = system.sweep(rn, rt, motion, sweeps, seed)
-    return time.process_time() - t0, int(st.normal_updates), int(st.tangential_updates)
 
 
 def main(argv=None) -> int:
@@ -68,24 +35,9 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     from forcespace.extend import code_version, write_json
 
-    systems = cases(args.disks, args.spheres)
-    for system, _ in systems.values():          # compile every kernel first
-        time_case(system, 2, 0)
-    runs = {name: [] for name in systems}
-    for k in range(args.rounds):
-        for name, (system, _) in systems.items():
-            cpu, normal, tangential = time_case(system, args.sweeps, k + 1)
-            runs[name].append({"cpu_s": cpu, "normal_updates": normal,
-                               "tangential_updates": tangential,
-                               "ns_per_update": 1e9 * cpu / normal})
-        print(f"round {k + 1}/{args.rounds}: " + ", ".join(
-            f"{n} {runs[n][-1]['ns_per_update']:.0f} ns" for n in runs), file=sys.stderr,
-            flush=True)
-    table = {name: {"what": systems[name][1],
-                    "ns_per_update_median": float(np.median([r["ns_per_update"]
-                                                             for r in runs[name]])),
-                    "tangential_updates": runs[name][0]["tangential_updates"],
-                    "rounds": runs[name]} for name in runs}
+    from forcespace_studies.bench_spheres import update_costs
+
+    table = update_costs(args.disks, args.spheres, args.sweeps, args.rounds)
     write_json(Path(args.out), {
         "description": "CPU ns per single-contact Gauss-Seidel update of the frozen plate "
                        "problem, disks beside spheres (studies/bench_spheres.py)",

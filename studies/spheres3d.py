@@ -86,6 +86,31 @@ def table(rows) -> str:
     return head + "\n".join(lines) + "\n"
 
 
+def validation(rows, ref_rows) -> str:
+    """The markdown table comparing this study's packings (candidate) with a reference
+    study's, per mu over the seeds both have: mean +- standard deviation of each, and the
+    difference of the means in units of its standard error (sqrt(sd1^2/n1 + sd2^2/n2))."""
+    keys = (("z", "z", "{:.3f}"), ("packing_fraction", "φ", "{:.4f}"),
+            ("rattler_fraction", "rattler fraction", "{:.3f}"), ("steps", "steps", "{:.0f}"),
+            ("cpu_seconds", "CPU s", "{:.0f}"))
+    out = ["| μ | seeds | quantity | reference | candidate | difference / s.e. |",
+           "|---|---|---|---|---|---|"]
+    for mu in sorted({r["mu"] for r in rows} & {r["mu"] for r in ref_rows}):
+        seeds = sorted({r["seed"] for r in rows if r["mu"] == mu}
+                       & {r["seed"] for r in ref_rows if r["mu"] == mu})
+        for key, name, fmt in keys:
+            a = np.array([r[key] for r in ref_rows if r["mu"] == mu and r["seed"] in seeds],
+                         float)
+            b = np.array([r[key] for r in rows if r["mu"] == mu and r["seed"] in seeds], float)
+            se = np.sqrt(a.var(ddof=1) / a.size + b.var(ddof=1) / b.size) if a.size > 1 \
+                else float("nan")
+            t = (b.mean() - a.mean()) / se if se > 0 else float("nan")
+            out.append(f"| {mu:g} | {len(seeds)} | {name} | {fmt.format(a.mean())} ± "
+                       f"{fmt.format(a.std(ddof=1))} | {fmt.format(b.mean())} ± "
+                       f"{fmt.format(b.std(ddof=1))} | {t:+.1f} |")
+    return "\n".join(out) + "\n"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--mu", type=float, nargs="+", default=[0.0, 0.01, 0.1, 1.0])
@@ -96,8 +121,18 @@ def main(argv=None) -> int:
     ap.add_argument("--scene", default="paper3d",
                     help="the bundled scene (paper3d, or paper3d_certified: the jam ended "
                          "by an exact static certificate)")
+    ap.add_argument("--reference", default=None,
+                    help="a finished study directory (its rows.jsonl) to compare with: "
+                         "writes OUT/validation.md and does not jam")
     args = ap.parse_args(argv)
     out = Path(args.out)
+    if args.reference:
+        def read(d):
+            return [json.loads(ln) for ln in (Path(d) / "rows.jsonl").read_text().splitlines()]
+        text = validation(read(out), read(args.reference))
+        (out / "validation.md").write_text(text)
+        print(text)
+        return 0
     (out / "packings").mkdir(parents=True, exist_ok=True)
     rows_file = out / "rows.jsonl"
     rows = [json.loads(ln) for ln in rows_file.read_text().splitlines()] \
