@@ -208,14 +208,22 @@ def certified_solve(setup: Setup, bodies: Bodies, seed: int, show_progress=True,
     cert = least_change_network(system, rn0, rt0, settings.tol)
     if cert.status != "static":
         return None, cert
+    start = ContactForces(c.keys, *in_cones(cert.rn, cert.rt, c.mu))
+    return polished(setup, bodies, seed, start, cert, show_progress, interrupt), cert
+
+
+def polished(setup: Setup, bodies, seed: int, start: ContactForces, cert: Certificate,
+             show_progress=True, interrupt=None):
+    """:func:`static_solve` from the network ``start`` (a certificate's) instead of the
+    dynamics' forces (restored after); (packing, statistics with the certificate's)."""
     dynamics = bodies.contacts
-    bodies.contacts = ContactForces(c.keys, *in_cones(cert.rn, cert.rt, c.mu))
+    bodies.contacts = start
     try:
         packing, stats = static_solve(setup, bodies, seed, show_progress, interrupt)
     finally:
         bodies.contacts = dynamics
     stats.update(certificate_stats(cert))
-    return (packing, stats), cert
+    return packing, stats
 
 
 def certificate_stats(cert: Certificate) -> dict:
@@ -318,14 +326,8 @@ def _certified_spheres(setup: Setup, bodies: SphereBodies, seed: int, show_progr
     if x is None:
         return None, cert
     fn, ft = problem.to_packing_forces(x)
-    dynamics = bodies.contacts
-    bodies.contacts = settled_forces(replace(packing, fn=np.maximum(fn, 0.0), ft=ft), setup)
-    try:
-        packing, stats = static_solve(setup, bodies, seed, show_progress, interrupt)
-    finally:
-        bodies.contacts = dynamics
-    stats.update(certificate_stats(cert))
-    return (packing, stats), cert
+    start = settled_forces(replace(packing, fn=np.maximum(fn, 0.0), ft=ft), setup)
+    return polished(setup, bodies, seed, start, cert, show_progress, interrupt), cert
 
 
 def packing_view(setup: Setup, bodies: Bodies, c: Contacts, image):
