@@ -71,6 +71,7 @@ def table(rows) -> str:
             "largest static residual [⟨Fn⟩] | largest Coulomb excess [⟨Fn⟩] | CPU s per jam |\n"
             "|---|---|---|---|---|---|---|---|---|\n")
     lines = []
+    rows = list({(r["mu"], r["seed"]): r for r in rows}.values())   # one row per packing
     for mu in sorted({r["mu"] for r in rows}):
         rs = [r for r in rows if r["mu"] == mu]
 
@@ -88,26 +89,28 @@ def table(rows) -> str:
 
 def validation(rows, ref_rows) -> str:
     """The markdown table comparing this study's packings (candidate) with a reference
-    study's, per mu over the seeds both have: mean +- standard deviation of each, and the
-    difference of the means in units of its standard error (sqrt(sd1^2/n1 + sd2^2/n2))."""
+    study's, per mu over the seeds both have (the same seed: the same loose start):
+    mean +- standard deviation of each, and the paired difference candidate - reference
+    (mean +- its standard error over the seeds, and that mean in units of its s.e.)."""
     keys = (("z", "z", "{:.3f}"), ("packing_fraction", "φ", "{:.4f}"),
             ("rattler_fraction", "rattler fraction", "{:.3f}"), ("steps", "steps", "{:.0f}"),
             ("cpu_seconds", "CPU s", "{:.0f}"))
-    out = ["| μ | seeds | quantity | reference | candidate | difference / s.e. |",
-           "|---|---|---|---|---|---|"]
-    for mu in sorted({r["mu"] for r in rows} & {r["mu"] for r in ref_rows}):
-        seeds = sorted({r["seed"] for r in rows if r["mu"] == mu}
-                       & {r["seed"] for r in ref_rows if r["mu"] == mu})
+    out = ["| μ | seeds | quantity | reference | candidate | paired difference | "
+           "difference / s.e. |", "|---|---|---|---|---|---|---|"]
+    ref = {(r["mu"], r["seed"]): r for r in ref_rows}
+    new = {(r["mu"], r["seed"]): r for r in rows}
+    for mu in sorted({k[0] for k in new} & {k[0] for k in ref}):
+        seeds = sorted(k[1] for k in new if k[0] == mu and k in ref)
         for key, name, fmt in keys:
-            a = np.array([r[key] for r in ref_rows if r["mu"] == mu and r["seed"] in seeds],
-                         float)
-            b = np.array([r[key] for r in rows if r["mu"] == mu and r["seed"] in seeds], float)
-            se = np.sqrt(a.var(ddof=1) / a.size + b.var(ddof=1) / b.size) if a.size > 1 \
-                else float("nan")
-            t = (b.mean() - a.mean()) / se if se > 0 else float("nan")
+            a = np.array([ref[mu, s][key] for s in seeds], float)
+            b = np.array([new[mu, s][key] for s in seeds], float)
+            d = b - a
+            se = d.std(ddof=1) / np.sqrt(d.size) if d.size > 1 else float("nan")
+            t = d.mean() / se if se > 0 else float("nan")
             out.append(f"| {mu:g} | {len(seeds)} | {name} | {fmt.format(a.mean())} ± "
                        f"{fmt.format(a.std(ddof=1))} | {fmt.format(b.mean())} ± "
-                       f"{fmt.format(b.std(ddof=1))} | {t:+.1f} |")
+                       f"{fmt.format(b.std(ddof=1))} | {fmt.format(d.mean())} ± "
+                       f"{fmt.format(se)} | {t:+.1f} |")
     return "\n".join(out) + "\n"
 
 

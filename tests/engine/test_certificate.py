@@ -226,6 +226,7 @@ def test_a_certified_sphere_jam_ends_by_its_certificate_and_is_static():
                                                   "jamming.certificate_speed": 1e-3})
     p = build_packing(scene, show_progress=False)
     assert p.meta["jam_end"] == "certificate" and p.meta["certificates_tried"] >= 1
-    assert p.meta["static_network"] == "certificate"
+    # the network as the uncertified scene finds it: sweeps from the dynamics' forces
+    assert p.meta["static_network"] == "sweeps"
     assert p.equilibrium_residual() <= scene["jamming.static_tolerance"]
     assert p.coulomb_violation() <= 1e-12
