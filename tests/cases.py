@@ -52,3 +52,20 @@ def two_row_packing(n_cols: int = 5, spacing: float = 1.2, load: float = 1.0,
     fn[p.a == BOTTOM] = down[p.b[p.a == BOTTOM]]
     return replace(p.with_forces(fn, np.zeros(p.n_contacts)), seed=seed,
                    meta={"builder": "tests/cases.py"})
+
+
+def sphere_on_supports(pos, r, mu, load):
+    """The last of the spheres ``pos`` (n, 3), ``r`` (n,) held by the others (fixed
+    supports, each touching it) under the fixed ``load`` (3,) [F0]: (SpherePacking, its
+    SphereStaticsProblem with that sphere interior; b = -(loads))."""
+    from forcespace.model.sphere_packing import SpherePacking
+    from forcespace.model.sphere_problem import build_sphere_problem
+    n = len(r)
+    below = list(range(n - 1))
+    p = SpherePacking.from_arrays(pos, r, below, [n - 1] * len(below), lateral=(50, 50),
+                                  mu=mu, fn=np.ones(len(below)))
+    interior = np.arange(n) == n - 1
+    prob = build_sphere_problem(p, interior, (), "hand", support_mask=~interior,
+                                rattlers=np.zeros(n, bool))
+    prob.b[:3] -= np.asarray(load, float)
+    return p, prob

@@ -28,7 +28,10 @@ The public API (``import forcespace as fs``)::
                                       unknowns per contact, Coulomb second-order cones
     nearest_admissible(problem, target)   a point of S for spheres (Clarabel's SOCP)
     ForceSpace(...).compute(problem)  exact analysis of S: dim, bounded, centre, radius,
-                                      ranges, domains, distance(x), plot
+                                      ranges, domains, distance(x), plot; of a sphere
+                                      problem too (SOCPs: dim S by facial reduction,
+                                      contacts on one ray of their cone or at its apex,
+                                      ranges of fn and |f_t|; no domains, samplers yet)
     HitAndRun(n, seed).compute(problem)   uniform samples of S (coordinate hit-and-run,
                                       the reference)
     BilliardWalk(n, seed).compute(problem)  uniform samples of S (billiard walk: the fast

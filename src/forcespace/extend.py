@@ -65,8 +65,11 @@ _SURFACE = {
     "unit_problem": ("space.lp", "unit_problem"), "eq_system": ("space.lp", "eq_system"),
     "max_point_force": ("space.loads", "max_point_force"),
     "affine_hull": ("linalg", "affine_hull"), "rank": ("linalg", "rank"),
+    "sphere_problem_for": ("model.sphere_problem", "sphere_problem_for"),
+    "pyramid_fn_ranges": ("space.conic", "pyramid_fn_ranges"),
     # sampling
     "by_chain": ("sampling.diagnostics", "by_chain"),
+    "ConicHitAndRun": ("sampling.conic_walk", "ConicHitAndRun"),
     # measures
     "rearrangement_depth": ("measures", "rearrangement_depth"),
     "surface_disk": ("measures", "surface_disk"),

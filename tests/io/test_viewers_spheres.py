@@ -104,6 +104,10 @@ def test_info_draw_and_view_commands_take_a_sphere_packing(tmp_path, capsys):
     assert (tmp_path / "s.png").stat().st_size > 10_000 and (tmp_path / "s.pdf").is_file()
     assert main(["view", str(PACK), "-o", str(tmp_path / "v"), "--json"]) == 0
     assert '"n_spheres": 60' in capsys.readouterr().out
-    assert main(["analyze", str(PACK), "--full"]) == 2       # S for spheres: issue 44
+    assert main(["sample", str(PACK), "--full", "--sampler", "hit-and-run", "-n", "10",
+                 "-o", str(tmp_path / "e.h5")]) == 2       # sampling S of spheres: not yet
     err = capsys.readouterr().err
     assert "dimension" in err and "Traceback" not in err
+    assert main(["analyze", str(PACK), "--full", "--clusters"]) == 2
+    err = capsys.readouterr().err
+    assert "--clusters" in err and "Traceback" not in err

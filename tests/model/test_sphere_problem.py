@@ -3,6 +3,7 @@ by the engine's frozen Gauss-Seidel relaxation, and the equilibrium matrix again
 force sums it must agree with."""
 import numpy as np
 import pytest
+from cases import sphere_on_supports
 
 from forcespace.engine.frozen import frozen_contacts3, relax
 from forcespace.errors import InputError
@@ -18,15 +19,7 @@ P = 3.0          # the vertical load on the top sphere [F0]
 def on_supports(pos, r, top, mu):
     """Sphere ``top`` (the last) resting on the others, which are fixed supports; a
     downward load P on it (b = -(loads): +P in its z row)."""
-    n = len(r)
-    below = list(range(n - 1))
-    p = SpherePacking.from_arrays(pos, r, below, [n - 1] * len(below), lateral=(50, 50),
-                                  mu=mu, fn=np.ones(len(below)))
-    interior = np.arange(n) == n - 1
-    prob = build_sphere_problem(p, interior, (), "hand", support_mask=~interior,
-                                rattlers=np.zeros(n, bool))
-    prob.b[2] += P
-    return p, prob
+    return sphere_on_supports(pos, r, mu, (0.0, 0.0, -P))
 
 
 def relaxed(prob, tol=1e-12, seed=0):

@@ -42,15 +42,19 @@ def check_seed(seed, option: str = "--seed") -> int:
     return seed
 
 
-def load_problem(path, slice_height=None, full=False, gap_tol=float("inf"), mu=None):
+def load_problem(path, slice_height=None, full=False, gap_tol=float("inf"), mu=None,
+                 spheres: bool = False):
     """Read a packing file and build the problem the options ask for
-    (:func:`forcespace.model.problem.problem_for`)."""
+    (:func:`forcespace.model.problem.problem_for`; with ``spheres``, a sphere packing's
+    :func:`forcespace.model.sphere_problem.sphere_problem_for`, else it is refused)."""
     from ..io.packing_file import read_packing
     from ..model.problem import problem_for
+    from ..model.sphere_problem import sphere_problem_for
 
     check_problem_args(mu, gap_tol, slice_height)
     packing = read_packing(path)
-    return packing, problem_for(packing, slice_height, full, gap_tol, mu, source=str(path))
+    build = sphere_problem_for if spheres and getattr(packing, "dim", 2) == 3 else problem_for
+    return packing, build(packing, slice_height, full, gap_tol, mu, source=str(path))
 
 
 def add_problem_args(p):
@@ -84,17 +88,24 @@ def cmd_analyze(args) -> int:
     from .printing import print_result
 
     t0 = time.perf_counter()
-    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
+    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu,
+                                    spheres=True)
+    if args.clusters and problem.dim == 3:
+        from ..errors import InputError
+        raise InputError(str(args.packing), "--clusters", "is answered for disks only so far "
+                         "(S of spheres has curved faces); analyze without it")
     S = analysed(problem, ranges=args.ranges, progress=not args.quiet)
     out = {"packing": str(args.packing), "kind": problem.kind, "slice_height": problem.height,
            "packing_mu": packing.mu, "mu_override": args.mu, **S.summary(),
            "z": packing.coordination()}
     out["n_rattlers_excluded"] = int(problem.rattlers.size)
-    out["load_inconsistency"] = problem.meta["load_inconsistency"]
+    out["load_inconsistency"] = problem.meta.get("load_inconsistency")
     out["jammed_violation"] = problem.violation(problem.x_jammed)
-    out["rattler_convention"] = ("a disk with no force-bearing contact (carries no load); "
-                                 "rattlers and all their contacts dropped")
-    out["domains_convention"] = DOMAINS_CONVENTION
+    grain = "sphere" if problem.dim == 3 else "disk"
+    out["rattler_convention"] = (f"a {grain} with no force-bearing contact (carries no "
+                                 "load); rattlers and all their contacts dropped")
+    if problem.dim == 2:
+        out["domains_convention"] = DOMAINS_CONVENTION
     if args.ranges and S.fn_range is not None:
         out["fn_range"] = S.fn_range
         out["ft_range"] = S.ft_range
@@ -104,7 +115,9 @@ def cmd_analyze(args) -> int:
     out["wall_time_s"] = time.perf_counter() - t0
     out["units"] = dict(out.pop("units", {}), slice_height="R", fn_range="F0", ft_range="F0",
                         load_inconsistency="<Fn>", jammed_violation="<Fn>",
-                        z="contacts per non-rattler disk", wall_time_s="s (wall clock)")
+                        z=f"contacts per non-rattler {grain}", wall_time_s="s (wall clock)")
+    if problem.dim == 3:
+        out["units"]["ft_range"] = "F0 (|f_t|, the tangential force's magnitude)"
     print_result(out, args.json)
     return 0
 

@@ -87,6 +87,8 @@ class StaticsProblem:
     _inequalities_mu: np.ndarray | None = field(default=None, init=False, repr=False,
                                                 compare=False)
 
+    dim = 2         # disks (a SphereStaticsProblem has 3)
+
     def __repr__(self) -> str:
         h = "" if self.height is None else f", height={self.height:g} R"
         return (f"StaticsProblem({self.kind}{h}: {self.n_interior} interior disks, "
@@ -220,29 +222,8 @@ class StaticsProblem:
         """The problem itself if its arrays are consistent, else InputError naming the
         field (what every computation checks at its door: a field set after building,
         e.g. ``mu`` = NaN, gave an analysis of a wrong S without a word)."""
-        from ..errors import require_array
-        source = self.source or source
-        m, n = self.n_contacts, self.n_interior
-        if m == 0:
-            raise InputError(source, "contacts", "no unknown contact in the problem (nothing "
-                             "to analyse or sample)")
-        if not sp.issparse(self.A) or self.A.shape[1] != 2 * m or self.A.shape[0] < 3 * n \
-                or not np.all(np.isfinite(self.A.data)):
-            raise InputError(source, "A", f"must be a sparse matrix of finite numbers with "
-                             f"{2 * m} columns (2 per unknown contact) and >= {3 * n} rows (3 "
-                             "per interior disk, then e.g. a plate's balance)",
-                             got=getattr(self.A, "shape", type(self.A)))
-        require_array(source, "b", self.b, (self.A.shape[0],), "the loads, one per row of A "
-                      "[F0]")
-        require_array(source, "x_jammed", self.x_jammed, (2 * m,), "fn, ft per contact [F0]")
-        mu = require_array(source, "mu", self.mu, (m,), "Coulomb coefficient per contact")
-        if mu.size and mu.min() < 0:
-            raise InputError(source, "mu", "must be >= 0 (Coulomb coefficients)",
-                             got=float(mu.min()))
-        if not (np.isfinite(self.force_scale) and self.force_scale > 0):
-            raise InputError(source, "force_scale", "must be a finite number > 0 (<Fn>, "
-                             "the mean normal force) [F0]", got=self.force_scale)
-        return self
+        return check_problem_arrays(self, source, per_contact=2, per_body=3, grain="disk",
+                                    columns="fn, ft")
 
     def _build_inequalities(self):
         rows, cols, vals, owner, kind = [], [], [], [], []
@@ -392,8 +373,9 @@ def build_problem(p: Packing, interior_mask, unknown_walls, kind, height=None,
     source = source or getattr(p, "source", "")
     if getattr(p, "dim", 2) != 2:
         raise InputError(source or "packing", "dimension", "must be 2: this question about S "
-                         "is answered for disks; a sphere packing's statics problem is "
-                         "forcespace.model.sphere_problem (its analysis of S: issue 44)",
+                         "is answered for disks only so far; a sphere packing's S: "
+                         "`forcespace analyze` (API: ForceSpace on sphere_slice_problem, "
+                         "sphere_full_problem or sphere_plate_problem)",
                          got=p.dim)
     if mu is not None and not (np.isfinite(mu) and 0 <= mu <= 1e6):
         raise InputError(source or "problem", "mu", "must be a number in [0, 1e6] (as the "
@@ -482,14 +464,23 @@ def problem_for(packing: Packing, slice_height: float | None = None, full: bool 
     """The problem a command asks for: the slice of ``slice_height`` [R], the whole
     packing with ``full``, else the slice height of the packing's scene, else the
     whole packing. ``mu``: disk-disk friction instead of the packing's own."""
+    height = chosen_slice_height(packing, slice_height, full, source)
+    if height is None:
+        return full_problem(packing, gap_tol=gap_tol, source=source, mu=mu)
+    return slice_problem(packing, height, gap_tol=gap_tol, source=source, mu=mu)
+
+
+def chosen_slice_height(packing, slice_height: float | None, full: bool,
+                        source: str = "") -> float | None:
+    """The slice height [R] a command asks for, or None for the whole packing:
+    ``slice_height``, None with ``full``, else the scene's ``[analysis] slice_height``
+    (None when it has none). Disks or spheres alike."""
     if full and slice_height is not None:
         raise InputError(source or "problem_for", "slice_height, full",
                          "give one of them, not both (a slice or the whole packing)")
-    if not full and slice_height is None:
-        slice_height = packing.scene_slice_height
-    if full or slice_height is None:
-        return full_problem(packing, gap_tol=gap_tol, source=source, mu=mu)
-    return slice_problem(packing, slice_height, gap_tol=gap_tol, source=source, mu=mu)
+    if full:
+        return None
+    return packing.scene_slice_height if slice_height is None else slice_height
 
 
 def slice_problem(packing: Packing, height: float, gap_tol: float = np.inf,
@@ -543,3 +534,35 @@ def checked_problem(problem, who: str) -> StaticsProblem:
                          "full_problem or plate_problem of a packing)",
                          got=type(problem).__name__)
     return problem.check()
+
+
+def check_problem_arrays(problem, source: str, per_contact: int, per_body: int, grain: str,
+                         columns: str):
+    """``problem`` (a disks' or spheres' statics problem) if its arrays are consistent,
+    else InputError naming the field: A sparse and finite with ``per_contact`` columns per
+    unknown contact and at least ``per_body`` rows per interior ``grain``, b one per row,
+    x_jammed (``columns`` per contact), mu >= 0, force_scale > 0."""
+    from ..errors import require_array
+    source = problem.source or source
+    m, n = problem.n_contacts, problem.n_interior
+    A = problem.A
+    if m == 0:
+        raise InputError(source, "contacts", "no unknown contact in the problem (nothing "
+                         "to analyse or sample)")
+    if not sp.issparse(A) or A.shape[1] != per_contact * m or A.shape[0] < per_body * n \
+            or not np.all(np.isfinite(A.data)):
+        raise InputError(source, "A", f"must be a sparse matrix of finite numbers with "
+                         f"{per_contact * m} columns ({per_contact} per unknown contact) and "
+                         f">= {per_body * n} rows ({per_body} per interior {grain}, then e.g. "
+                         "a plate's balance)", got=getattr(A, "shape", type(A)))
+    require_array(source, "b", problem.b, (A.shape[0],), "the loads, one per row of A [F0]")
+    require_array(source, "x_jammed", problem.x_jammed, (per_contact * m,),
+                  f"{columns} per contact [F0]")
+    mu = require_array(source, "mu", problem.mu, (m,), "Coulomb coefficient per contact")
+    if mu.size and mu.min() < 0:
+        raise InputError(source, "mu", "must be >= 0 (Coulomb coefficients)",
+                         got=float(mu.min()))
+    if not (np.isfinite(problem.force_scale) and problem.force_scale > 0):
+        raise InputError(source, "force_scale", "must be a finite number > 0 (<Fn>, "
+                         "the mean normal force) [F0]", got=problem.force_scale)
+    return problem

@@ -35,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError
-from .problem import classify_contacts
+from .problem import check_problem_arrays, chosen_slice_height, classify_contacts
 from .sphere_packing import SpherePacking, check_sphere_packing, sphere_contact_sums
 from .walls import BOTTOM, TOP, contact_mu_array
 
@@ -126,6 +126,16 @@ class SphereStaticsProblem:
             meta[k] = np.asarray(meta[k], float) * f
         return dataclasses.replace(self, b=self.b * f, x_jammed=self.x_jammed * f,
                                    force_scale=self.force_scale * f, meta=meta)
+
+    def check(self, source: str = "problem") -> "SphereStaticsProblem":
+        """The problem itself if its arrays are consistent, else InputError naming the
+        field (the disks' door check, 3 columns per contact and 6 rows per sphere)."""
+        check_problem_arrays(self, source, per_contact=3, per_body=6, grain="sphere",
+                             columns="fn, f1, f2")
+        if np.shape(self.frame) != (self.n_contacts, 3, 3):
+            raise InputError(self.source or source, "frame", "must be (m, 3, 3): rows n, t1, "
+                             "t2 of every unknown contact", got=np.shape(self.frame))
+        return self
 
     # ---- column maps ----------------------------------------------------------------
     def forces_from_packing(self, fn, ft) -> np.ndarray:
@@ -298,3 +308,15 @@ def sphere_slice_problem(packing: SpherePacking, height: float, gap_tol: float =
     mask = np.abs(p.z - zc) <= 0.5 * height
     return build_sphere_problem(p, mask, (), "slice", height=float(height), gap_tol=gap_tol,
                                 source=source, mu=mu)
+
+
+def sphere_problem_for(packing: SpherePacking, slice_height: float | None = None,
+                       full: bool = False, gap_tol: float = np.inf, mu: float | None = None,
+                       source: str = "") -> SphereStaticsProblem:
+    """The problem a command asks for (the disks' :func:`~forcespace.model.problem.problem_for`
+    for spheres): the slice of ``slice_height`` [R], the whole packing with ``full``, else
+    the slice height of the packing's scene, else the whole packing."""
+    height = chosen_slice_height(packing, slice_height, full, source)
+    if height is None:
+        return sphere_full_problem(packing, gap_tol=gap_tol, source=source, mu=mu)
+    return sphere_slice_problem(packing, height, gap_tol=gap_tol, source=source, mu=mu)

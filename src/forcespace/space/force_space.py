@@ -18,8 +18,10 @@ from .. import config
 from ..errors import InputError, NumericalError, require_array
 from ..linalg import affine_hull, rank
 from ..model.problem import StaticsProblem, checked_problem
+from ..model.sphere_problem import SphereStaticsProblem
 from ..progress import progress as progress_bar
 from ..result import Computed
+from .conic import CONE_FACE_TOL, analyze_conic, nearest_admissible
 from .lp import eq_system, unit_problem
 from .questions import (boundedness, centre_and_radius, column_ranges, feasibility,
                         implicit_kinds, interior_max_sum_fn, interior_strict_rows, tight_rows,
@@ -39,6 +41,13 @@ class ForceSpace(Computed):
     unknown contact j [F0]. Arrays indexed by problem contact j unless stated.
     An LP that fails ends ``compute`` with ``success = False`` (``message`` says
     which); results it did not reach then raise AttributeError.
+
+    A sphere problem (:class:`~forcespace.model.sphere_problem.SphereStaticsProblem`;
+    x[3j:3j+3] = fn, f1, f2) is answered by SOCPs (:func:`forcespace.space.conic.analyze_conic`):
+    the same results, the implicit equalities being the cones' faces (:attr:`faces`; a
+    contact on one ray of its cone or at its apex), ``ft_range`` the range of |f_t|,
+    ``centre``/``radius`` a certified inscribed ball; ``domains``, ``varying`` and
+    ``implicit_rows`` are for disks only (a one-line InputError, or None).
     """
 
     def __init__(self, ranges: bool = False, centre: bool = True,
@@ -50,13 +59,19 @@ class ForceSpace(Computed):
 
     def compute(self, problem: StaticsProblem) -> "ForceSpace":
         """Analyse S of ``problem`` (:class:`~forcespace.model.problem.StaticsProblem`)."""
-        problem = checked_problem(problem, "ForceSpace")
+        conic = isinstance(problem, SphereStaticsProblem)
+        problem = problem.check("ForceSpace") if conic else checked_problem(problem,
+                                                                             "ForceSpace")
         if problem.n_contacts == 0:
             raise InputError(problem.source or "problem", "contacts",
                              "no unknown contact in the problem")
         self._start()
         self.problem, self._domains = problem, None
-        P, s = unit_problem(problem)
+        if conic:       # spheres: S has curved faces, its questions are SOCPs
+            P, s = problem.scaled(1.0 / problem.force_scale), problem.force_scale
+            analyze = analyze_conic
+        else:
+            (P, s), analyze = unit_problem(problem), _analyze
         r = self._results
         r["force_scale"] = s
         with progress_bar(total=100, desc="analysis of S", unit="%",
@@ -68,8 +83,8 @@ class ForceSpace(Computed):
                 bar.set_postfix_str(name)
                 done.append(name)
             try:
-                _analyze(P, r, ranges=self.ranges, centre=self.centre_ball, tol=self.tol,
-                         stage=stage)
+                analyze(P, r, ranges=self.ranges, centre=self.centre_ball,
+                        tol=max(self.tol, CONE_FACE_TOL) if conic else self.tol, stage=stage)
             except NumericalError as exc:
                 self._finish(2, str(exc))
             else:
@@ -137,7 +152,8 @@ class ForceSpace(Computed):
     @property
     def implicit(self) -> list:
         """(contact j, kind) of every implicit equality: "slides+" (ft = +mu fn),
-        "slides-" (ft = -mu fn) or "zero" (fn = ft = 0)."""
+        "slides-" (ft = -mu fn) or "zero" (fn = ft = 0); spheres: "ray" (f_t = mu fn
+        times one fixed unit vector) or "apex" (fn = f_t = 0)."""
         return self._get("implicit")
 
     @property
@@ -170,7 +186,8 @@ class ForceSpace(Computed):
 
     @property
     def ft_range(self) -> np.ndarray | None:
-        """(m, 2) min and max of ft over S [F0] (``ranges=True``; else None)."""
+        """(m, 2) min and max of ft over S [F0] (``ranges=True``; else None); spheres: of
+        |f_t| (the max by support ascent, :func:`forcespace.space.conic.ft_range`)."""
         return self._get("ft_range")
 
     @property
@@ -181,8 +198,16 @@ class ForceSpace(Computed):
 
     @property
     def radius(self) -> float | None:
-        """Radius of the largest ball in S within its affine hull [F0]."""
+        """Radius of the largest ball in S within its affine hull [F0] (spheres: of the
+        largest ball the per-cone bounds certify, :func:`forcespace.space.conic.conic_centre`;
+        at most the largest inscribed one)."""
         return self._get("radius")
+
+    @property
+    def faces(self):
+        """Spheres: the face of every contact's cone that S spans
+        (:class:`forcespace.space.conic.Faces`; None for disks or an empty S)."""
+        return self._results.get("faces") if self._results is not None else self._get("faces")
 
     @property
     def max_sum_fn(self) -> float:
@@ -231,6 +256,10 @@ class ForceSpace(Computed):
     def domains(self) -> list:
         """Independent domains of indeterminacy (:class:`forcespace.space.structure.Domain`);
         the elementary clusters are the domains of dimension 1."""
+        if self.problem.dim == 3:
+            raise InputError("ForceSpace.domains", "problem", "domains of indeterminacy are "
+                             "found for disks only so far (S of spheres has curved faces)",
+                             got="SphereStaticsProblem")
         if self._domains is None:
             from .structure import domains
             self._domains = domains(self.problem, self) if self.feasible and self.dim else []
@@ -249,6 +278,8 @@ class ForceSpace(Computed):
         from .projection import distance_to_S
         if not self.feasible:
             raise InputError("distance", "S", "is empty (infeasible); no distance")
+        if self.problem.dim == 3:
+            return conic_distance(self.problem, x)
         return distance_to_S(self.problem, x)
 
     def summary(self) -> dict:
@@ -270,7 +301,14 @@ class ForceSpace(Computed):
         rd = r.get("recession_direction")
         if rd is not None:
             d["recession_direction_support"] = int((np.abs(rd) > config.RECESSION_SUPPORT_TOL * np.abs(rd).max()).sum())
-        if r.get("feasible") and r.get("dim") is not None and not self._status:
+        if self.problem.dim == 3 and r.get("feasible"):
+            pk = self.problem.contacts
+            d.update({"dimension": 3, "n_on_a_ray": int(r["sliding_contacts"].size),
+                      "n_at_the_apex": int(r["zero_contacts"].size),
+                      "contacts_on_a_ray": pk[r["sliding_contacts"]].tolist(),
+                      "contacts_at_the_apex": pk[r["zero_contacts"]].tolist(),
+                      "faces_convention": FACES_CONVENTION})
+        elif r.get("feasible") and r.get("dim") is not None and not self._status:
             doms = self.domains
             d.update({"n_domains": len(doms), "domain_dims": [g.dim for g in doms],
                       # a domain of dimension 1 is one elementary cluster that shares no
@@ -302,6 +340,34 @@ class ForceSpace(Computed):
         r = self._results
         return (f"ForceSpace({args}): {self.problem.kind}, {self.problem.n_contacts} contacts, "
                 f"feasible={r.get('feasible')}, bounded={r.get('bounded')}, dim={r.get('dim')}")
+
+
+FACES_CONVENTION = (
+    "spheres: a contact whose Coulomb cone S enters only on one ray (it slides in one fixed "
+    "direction on all of S: n_on_a_ray, counted in n_sliding) or only at its apex (it "
+    "carries nothing on all of S: n_at_the_apex, counted in n_zero_force); each gives linear "
+    "equalities of S's affine hull, 2 and 3; contacts_on_a_ray, contacts_at_the_apex: their "
+    "packing contact indices")
+
+
+def conic_distance(problem: SphereStaticsProblem, x):
+    """Euclidean distance from x (3m,) [F0] to S of spheres and the nearest point, by
+    Clarabel's SOCP (:func:`forcespace.space.conic.nearest_admissible`): a
+    :class:`~forcespace.space.projection.DistanceResult` (kkt_residual NaN: the
+    interior-point solver's own optimality, to ``SOLVER_TOLERANCE``, stands for it; its
+    nearest point is accurate to ~1e-5 <Fn> where it lies on a cone's boundary). A point
+    in S to ``config.SAMPLE_VIOLATION`` is its own nearest point."""
+    from .projection import DistanceResult
+    x = require_array("distance", "x", x, (problem.n_columns,), "a network of the problem "
+                      "(fn, f1, f2 per contact) [F0]")
+    if problem.violation(x) <= config.SAMPLE_VIOLATION:       # in S already: itself
+        return DistanceResult(0.0, 0.0, x.copy(), problem.violation(x), 0.0, "in S")
+    res = nearest_admissible(problem, target=x)
+    if not res.feasible:
+        raise NumericalError(f"nearest point of S: Clarabel status {res.status}")
+    dist = float(np.linalg.norm(res.x - x))
+    return DistanceResult(dist, dist / (problem.force_scale * np.sqrt(problem.n_contacts)),
+                          res.x, res.violation, float("nan"), "clarabel socp")
 
 
 # the stages of an analysis and their share of its time (5000-disk slice, CPU), for the
