@@ -53,7 +53,7 @@ COVERS = 0.95             # "the ranges contain the truth": >= 95 % of the true 
 QUICK = dict(scene="quick", n_disks=40, slice_height=10.0, rt=((0.1, 1), (0.5, 1), (1.0, 1)),
              noise=((0.5, 2),), levels=(0.0, 0.01, 0.05, 0.2), drop=0.05)
 FULL = dict(scene="paper", n_disks=200, slice_height=28.0, rt=((0.1, 3), (0.5, 3), (1.0, 3)),
-            noise=((0.1, 10), (0.5, 3)), levels=(0.0, 0.01, 0.05, 0.2), drop=0.05)
+            noise=((0.1, 10), (0.5, 10)), levels=(0.0, 0.01, 0.05, 0.2), drop=0.05)
 
 
 def config(quick: bool) -> dict:
