@@ -67,8 +67,15 @@ IMPLICIT_TOL = 1e-9         # [<Fn>] an inequality whose slack never exceeds thi
                             # implicit equality (a contact forced to slide or to carry nothing)
 VARY_TOL = 1e-6             # [<Fn>] a contact varies in S if its fn or ft can change by more
                             # than this within S
+RANGE_GAP_TOL = 1e-4        # [<Fn>] a range LP's answer is reported when its multipliers prove
+                            # no point of S beyond it by more than this (the bound's own slack,
+                            # |N^T q| x the diameter bound of S, stays below 5e-5 on n = 800,
+                            # mu = 1 slices; the simplex's wrong answers were 0.03-0.2 short)
 RANGE_LP_TOL = 1e-10        # [<Fn>] primal and dual feasibility of the warm-started simplex
                             # LPs of the per-contact ranges of large problems (HiGHS' smallest)
+RANGE_EXACT_MAX_DIM = 1000  # [dimensions] up to this dim S, each warm-started range LP's optimum is
+                            # polished to its exact vertex (dense d x d solves; HiGHS' basis,
+                            # optimal to its 1e-10, left ends ~1e-9 <Fn> off the optimum)
 RANGE_FLAT_ROW = 1e-13      # [1] |G_i N| below this: row i is constant on S's affine hull and left
                             # out of the range LPs (FLAT_ROW, 1e-9, would let a row still
                             # varying at 1e-9 <Fn> widen a range by that much)

@@ -23,11 +23,21 @@ from ..progress import progress as progress_bar
 from ..result import Computed
 from .conic import CONE_FACE_TOL, analyze_conic, nearest_admissible
 from .lp import eq_system, unit_problem
-from .questions import (boundedness, centre_and_radius, column_ranges, feasibility,
+from .questions import (RangeCertificate, boundedness, centre_and_radius, column_ranges,
+                        feasibility,
                         implicit_kinds, interior_max_sum_fn, interior_strict_rows, tight_rows,
                         scaled_diagnosis, varying_contacts)
 
 _SCALED = ("fn_range", "ft_range", "centre", "affine_point", "radius", "max_sum_fn")
+RANGE_CERTIFICATE_CONVENTION = (
+    "lps: range LPs; an answer its multipliers do not prove to within config.RANGE_GAP_TOL "
+    "<Fn> on S is asked again (retried) in the 2m forces: simplex, interior point, dual "
+    "simplex without presolve; confirmed: not proven, but two methods agree within "
+    "RANGE_GAP_TOL; uncertified: neither, the most extreme point of S found is reported; "
+    "max_gap [<Fn>]: largest gap of a proven answer; exact / polished / not_polished: "
+    "warm-started hull LPs whose basis was optimal to round-off / was pivoted to the exact "
+    "optimum / stayed as HiGHS left it (within its 1e-10 tolerances); null: S unbounded, "
+    "nothing checked")
 
 
 class ForceSpace(Computed):
@@ -295,6 +305,9 @@ class ForceSpace(Computed):
              "n_zero_force": None if r.get("zero_contacts") is None else self.n_zero,
              "max_sum_fn": r.get("max_sum_fn"), "force_scale": r.get("force_scale"),
              "centre_radius": r.get("radius")}
+        if r.get("fn_range") is not None:
+            d["range_certificate"] = None if r.get("range_certificate") is None else dict(
+                r["range_certificate"], convention=RANGE_CERTIFICATE_CONVENTION)
         if r.get("infeasibility") is not None:
             d["infeasibility"] = {k: v for k, v in r["infeasibility"].items()
                                   if k not in ("least_violating", "relaxation")}
@@ -323,7 +336,8 @@ class ForceSpace(Computed):
             d["analysis_failed"] = self._message
         d["units"] = {"max_sum_fn": "F0", "centre_radius": "F0 (radius of the largest ball "
                       "in S within its affine hull)", "force_scale": "F0 (<Fn>: the jammed "
-                      "mean normal force of the problem's contacts)"}
+                      "mean normal force of the problem's contacts)",
+                      "range_certificate.max_gap": "<Fn>"}
         return d
 
     def plot(self, packing, ax=None, **kw):
@@ -401,7 +415,7 @@ def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol
     out.update(bounded=None, dim=None, infeasibility=None, recession_direction=None,
                fn_range=None, ft_range=None, centre=None, radius=None, max_sum_fn=None,
                implicit_rows=None, implicit=[], sliding_contacts=None, zero_contacts=None,
-               affine_point=None, affine_basis=None, varying=None)
+               affine_point=None, affine_basis=None, varying=None, range_certificate=None)
     stage("feasibility and implicit equalities")
     interior = interior_strict_rows(problem) if large else None
     if interior is not None:
@@ -432,15 +446,19 @@ def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol
     out["affine_point"], out["affine_basis"] = xa, N
     out["implicit"], out["sliding_contacts"], out["zero_contacts"] = \
         implicit_kinds(imp, owner, kind)
+    # every range LP's answer is checked by its multipliers (needs S's diameter bound:
+    # the ranges of an unbounded S are not checked)
+    cert = RangeCertificate(problem, N, xa, msum) if bounded and msum is not None else None
     if ranges:                  # an unbounded side of a range is +-inf
         stage("ranges")
-        out["fn_range"], out["ft_range"] = column_ranges(problem, N, xa)
+        out["fn_range"], out["ft_range"] = column_ranges(problem, N, xa, cert=cert)
     if bounded and centre:
         stage("centre")
         out["centre"], out["radius"] = centre_and_radius(problem, N, imp, interior=large)
     stage("varying contacts")
     rngs = (out["fn_range"], out["ft_range"]) if out["fn_range"] is not None else None
     out["varying"] = varying_contacts(problem, N, msum, out["radius"] or 0.0, rngs,
-                              points=(xa, out["centre"]))
+                                      points=(xa, out["centre"]), cert=cert)
+    out["range_certificate"] = None if cert is None else dict(cert.stats)
 
 

@@ -142,7 +142,18 @@ class HullRanges:
     size d instead of the primal's number of rows (1000-particle frame, d = 41, 2004 rows:
     2.2 ms and 12 pivots per objective, against 4.8 ms and 17 pivots by warm primal simplex
     on the primal and 21 ms by warm dual simplex). ``minimum(c)`` -> (status, value): 0
-    optimal, 3 unbounded below (the dual is infeasible), 1 anything else."""
+    optimal, 3 unbounded below (the dual is infeasible), 1 anything else; after an optimum,
+    ``y`` (d,) is its vertex and ``mu`` (p,) >= 0 its multipliers (the dual's solution:
+    H^T mu = -c, the certificate of :class:`forcespace.space.questions.RangeCertificate`).
+
+    ``minimum(c, exact=True)`` polishes the answer (:func:`exact_vertex`): HiGHS stops at a
+    basis optimal to its tolerances (1e-10, its smallest), which may be a neighbour of the
+    optimal one; its value then differs from the optimum by ~1e-9 <Fn>, and by a different
+    amount on bit-different data (a packing written and read back). The polish pivots to
+    the basis whose multipliers are >= 0 and whose vertex is feasible to round-off, so the
+    value is the optimum's to ~1e-13. ``polished``: pivots the last polish made (0: HiGHS'
+    basis was optimal), -1 where it was not polished (the basis not square, or no exact
+    optimum reached within ``EXACT_MAX_PIVOTS``: HiGHS' answer stands)."""
 
     def __init__(self, H, h, tol: float = 1e-10):
         import highspy
@@ -168,9 +179,12 @@ class HullRanges:
             self.h.setOptionValue(key, value)
         self.h.passModel(lp)
         self.rows = np.arange(d, dtype=np.int32)
-        self.codes = highspy.HighsModelStatus
+        self.codes, self.basic = highspy.HighsModelStatus, highspy.HighsBasisStatus.kBasic
+        self.H, self.rhs = H, np.asarray(h, float)
+        self.y = self.mu = None
+        self.polished = -1
 
-    def minimum(self, c):
+    def minimum(self, c, exact: bool = False):
         c = np.asarray(c, float)
         h, M = self.h, self.codes
         h.changeRowsBounds(self.rows.size, self.rows, -c, -c)
@@ -180,11 +194,78 @@ class HullRanges:
             # the primal vertex y is the dual LP's row dual (B^-T h_B from the final basis:
             # it solves its d active rows to round-off); c.y there, not the dual objective,
             # which carries the tolerance of every mu_i >= 0 (1e-10 x 2000 slacks: 1e-9 <Fn>)
-            y = np.array(h.getSolution().row_dual)
-            return 0, float(c @ y)
+            sol = h.getSolution()
+            self.y = np.array(sol.row_dual)
+            self.mu = np.maximum(np.array(sol.col_value), 0.0)
+            self.polished = -1
+            if exact:
+                B = np.flatnonzero(np.array(h.getBasis().col_status) == self.basic)
+                done = exact_vertex(self.H, self.rhs, c, B, self.y, self.mu)
+                if done is not None:
+                    self.y, self.mu, self.polished = done
+            return 0, float(c @ self.y)
         if status == M.kInfeasible:
             return 3, -np.inf
         return 1, None
+
+
+EXACT_MAX_PIVOTS = 200      # pivots of exact_vertex before it gives up (HiGHS' answer stands)
+EXACT_ROUNDOFF = 1e-13      # [1] x the scale: a multiplier above -this, a row violated by less than
+                            # this, counts as >= 0, as satisfied (round-off of a d x d solve)
+
+
+def exact_vertex(H, h, c, B, y=None, mu=None):
+    """The optimum of min c.y over {H y <= h} (H (p, d)) from a basis B (d rows, e.g.
+    HiGHS' final one) by dense active-set pivots with round-off tolerances: at the vertex
+    H_B y = h_B, the multipliers lam of H_B^T lam = -c; while some lam_i < 0, row i leaves
+    (the objective falls along H_B dy = -e_i) and the first row reached enters (ratio test).
+    ``y``, ``mu`` (HiGHS' vertex and multipliers): when they are already exact (mu_B >= 0,
+    H y <= h, both to ``EXACT_ROUNDOFF``) nothing is solved. Returns (y (d,), mu (p,),
+    pivots), or None: B not square or singular, no optimum within ``EXACT_MAX_PIVOTS``, or
+    the optimum's vertex violating a row (a dual step would be needed)."""
+    p, d = H.shape
+    B = np.asarray(B, np.int64)
+    if B.size != d:
+        return None
+    scale = max(1.0, float(np.abs(c).max(initial=0.0)))
+    if y is not None and mu is not None and _exact(H, h, y, mu[B], scale):
+        return y, mu, 0
+    import scipy.linalg as sla
+
+    for k in range(EXACT_MAX_PIVOTS + 1):
+        try:
+            lu = sla.lu_factor(H[B], check_finite=False)
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        y = sla.lu_solve(lu, h[B])
+        y += sla.lu_solve(lu, h[B] - H[B] @ y)          # one step of refinement
+        lam = sla.lu_solve(lu, -c, trans=1)
+        if not np.all(np.isfinite(lam)) or not np.all(np.isfinite(y)):
+            return None
+        i = int(np.argmin(lam))
+        if lam[i] >= -EXACT_ROUNDOFF * scale:
+            if not _exact(H, h, y, lam, scale):
+                return None
+            out = np.zeros(p)
+            out[B] = np.maximum(lam, 0.0)
+            return y, out, k
+        e = np.zeros(d)
+        e[i] = -1.0
+        r = H @ sla.lu_solve(lu, e)                      # the rows' rates along dy
+        r[B] = 0.0
+        cand = np.flatnonzero(r > EXACT_ROUNDOFF * max(1.0, float(np.abs(r).max())))
+        if cand.size == 0:
+            return None                                  # unbounded: not a range's case
+        t = np.maximum(h[cand] - H[cand] @ y, 0.0) / r[cand]
+        B[i] = cand[int(np.argmin(t))]
+    return None
+
+
+def _exact(H, h, y, lam, scale) -> bool:
+    """Multipliers lam >= 0 and H y <= h, both to EXACT_ROUNDOFF x scale."""
+    return bool(lam.min(initial=0.0) >= -EXACT_ROUNDOFF * scale
+                and np.max(H @ y - h, initial=0.0) <= EXACT_ROUNDOFF * max(1.0, float(
+                    np.abs(h).max(initial=0.0))))
 
 
 def solve_lp_interior(c, A_ub, b_ub, A_eq, b_eq, lo, hi, tol: float = 1e-9):

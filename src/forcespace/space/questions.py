@@ -167,7 +167,7 @@ def interior_max_sum_fn(problem: StaticsProblem):
 
 
 def varying_contacts(problem: StaticsProblem, N, max_sum_fn, radius, ranges=None,
-             points=()) -> np.ndarray:
+                     points=(), cert=None) -> np.ndarray:
     """Mask (m,) of contacts whose force can change by more than VARY_TOL <Fn> within S
     (problem at <Fn> = 1).
 
@@ -176,7 +176,8 @@ def varying_contacts(problem: StaticsProblem, N, max_sum_fn, radius, ranges=None
     sqrt(2) radius ||N_j||; the diameter of S is at most 2 sqrt(1 + mu^2)
     max_sum_fn, so the range is at most that times ||N_j||. Contacts between
     the bounds are decided by LP (:func:`lp_widths`; ``points``: known points of S
-    that spare some of them; ``ranges``: the full range table when already computed).
+    that spare some of them; ``ranges``: the full range table when already computed;
+    ``cert``: the :class:`RangeCertificate` its LPs are checked with).
     Entries of N_j at the 1e-9 level (couplings of the data's round-off) never make a
     contact vary: the decision is about forces, not about basis entries.
     """
@@ -196,7 +197,7 @@ def varying_contacts(problem: StaticsProblem, N, max_sum_fn, radius, ranges=None
                                np.ptp(rng_ft[undecided], axis=1))
         else:
             width = lp_widths(problem, undecided, config.VARY_TOL, points,
-                               hull=N if points else None)
+                              hull=N if points else None, cert=cert)
         varying[undecided] = ~(width <= config.VARY_TOL)   # unbounded (inf) or NaN-free wide: varies
     return varying
 
@@ -204,7 +205,7 @@ def varying_contacts(problem: StaticsProblem, N, max_sum_fn, radius, ranges=None
 
 
 def lp_widths(problem: StaticsProblem, contacts, tol: float, points=(),
-               hull=None) -> np.ndarray:
+              hull=None, cert=None) -> np.ndarray:
     """Force range of each of ``contacts`` (k,) over S: max of its fn and ft ranges [F0],
     by LP, solving only what the decision "range > ``tol``" needs.
 
@@ -221,6 +222,7 @@ def lp_widths(problem: StaticsProblem, contacts, tol: float, points=(),
     disks with a thin S (most contacts undecided by the ball test) it replaced ~4000 LPs
     (hours) by a handful.
 
+    ``cert``: a :class:`RangeCertificate` every answer is checked with.
     ``hull``: N (2m, d), an orthonormal basis of S's affine hull through ``points[0]``.
     Where d <= ``config.REDUCED_LP_MAX_DIM`` the LPs are asked in the hull's coordinates
     (:class:`_HullLP`: d unknowns instead of 2m; S lies in its hull), which at mu = 1
@@ -231,9 +233,9 @@ def lp_widths(problem: StaticsProblem, contacts, tol: float, points=(),
     lo, hi = problem.bounds()
     bnds = bounds_list(lo, hi)
     m2 = problem.n_columns
-    extreme = (_HullLP(problem, hull, points).extreme
+    extreme = (_HullLP(problem, hull, points, cert).extreme
                if hull is not None and hull.shape[1] <= config.REDUCED_LP_MAX_DIM
-               else lambda col, sgn: _column_extreme(problem, G, bnds, col, sgn))
+               else lambda col, sgn: _column_extreme(problem, G, bnds, col, sgn, cert))
     seen_lo, seen_hi = np.full(m2, np.inf), np.full(m2, -np.inf)
     trusted = config.TRUSTED_POINT * tol
 
@@ -282,9 +284,11 @@ class _HullLP:
     forgiven: h >= 0, so y = 0 is feasible and S is widened by at most that violation,
     the order of the 1e-7 tolerance HiGHS works to in the LPs in 2m unknowns. Rows
     constant on the hull (|row| <= FLAT_ROW) are dropped.
-    ``extreme(col, sgn)`` is :func:`_column_extreme`'s contract."""
+    ``extreme(col, sgn)`` is :func:`_column_extreme`'s contract; with ``cert`` (a
+    :class:`RangeCertificate`) an answer its multipliers do not prove is asked again in
+    the 2m forces."""
 
-    def __init__(self, problem: StaticsProblem, N, points):
+    def __init__(self, problem: StaticsProblem, N, points, cert=None):
         G, _, _ = problem.inequalities()
         N = np.asarray(N, float)
         xa = np.asarray(points[0], float)
@@ -292,43 +296,149 @@ class _HullLP:
         x0 = min(on_hull, key=problem.violation)
         H, h = np.asarray(G @ N), -(G @ x0)
         keep = np.linalg.norm(H, axis=1) > config.FLAT_ROW
-        self.N, self.x0 = N, x0
+        self.N, self.x0, self.cert = N, x0, cert
         self.H, self.h = H[keep], np.maximum(h[keep], 0.0)
 
     def extreme(self, col: int, sgn: float):
-        res = solve_lp(sgn * self.N[col], self.H, self.h, bounds=(None, None),
-                       known_feasible=True)
+        c = sgn * self.N[col]
+        res = solve_lp(c, self.H, self.h, bounds=(None, None), known_feasible=True)
         if res.status == 3:
             return -sgn * np.inf, None
         if res.status != 0:
             raise NumericalError(f"range LP for column {col} (hull coordinates) failed: "
                                  f"{res.message}")
         x = self.x0 + self.N @ res.x
-        return x[col], x
+        if self.cert is None or self.cert.hull_accepts(res.x, np.minimum(
+                res.ineqlin.marginals, 0.0), c, self.H, self.h):
+            return x[col], x
+        return self.cert.in_full_space(col, sgn, (x[col], x))
 
 
-def _column_extreme(problem: StaticsProblem, G, bnds, col: int, sgn: float):
+class RangeCertificate:
+    """Checks a range LP's "optimal" answer before it is reported (issue 47: on n = 800,
+    mu = 1 slices HiGHS' simplex called optima that were 0.03-0.2 <Fn> short when the
+    equilibrium rows were nearly dependent: its equality multipliers reached 1e11, and
+    with them any point within 1e-9 of the equations looked optimal).
+
+    S is taken as the analysis takes it: the points x = x_a + N y of its affine hull
+    (``N`` (2m, d) the hull's orthonormal basis, the rank cut applied) with G x <= 0 and
+    fn >= 0; |x - x_a| <= D = 2 sqrt(1 + mu_max^2) max_sum_fn (the diameter bound of S).
+    In the 2m forces (:meth:`accepts`): for any nu <= 0 and r >= 0 on the fn columns,
+    q = c - G^T nu - r gives, for every x of S, c.x = q.x + nu.(G x) + r.x >= q.x =
+    q.x_a + (N^T q).y >= q.x_a - |N^T q| D. In the hull's coordinates, over {H y <= h}
+    (:meth:`hull_accepts`): c.y >= nu.h - |c - H^T nu| D. With the LP's own multipliers
+    (inequalities' nu, the lower bounds' reduced costs as r) the bound is tight at a true
+    optimum; the equality multipliers never enter (huge ones leave a large |N^T q| and
+    are refused). An answer is accepted when its point is in S (violation <=
+    ``config.VARY_TOL``) and the bound is within ``config.RANGE_GAP_TOL`` of its value;
+    otherwise the question is asked again in the 2m forces (:func:`_column_extreme`).
+    ``stats``: lps (range questions), retried (first answer not proven), confirmed (no
+    answer proven, two methods agree within RANGE_GAP_TOL), uncertified (neither), max_gap
+    [<Fn>] of a proven answer."""
+
+    def __init__(self, problem: StaticsProblem, N, xa, max_sum_fn: float):
+        self.problem, self.N, self.xa = problem, np.asarray(N, float), np.asarray(xa, float)
+        self.diam = 2.0 * np.sqrt(1.0 + float(problem.mu.max(initial=0.0)) ** 2) * max_sum_fn
+        lo, hi = problem.bounds()
+        self.fn = (lo == 0.0) & ~np.isfinite(hi)         # columns with fn >= 0 alone
+        self.fn[1::2] = False
+        self.stats = {"lps": 0, "retried": 0, "confirmed": 0, "uncertified": 0,
+                      "max_gap": 0.0, "exact": 0, "polished": 0, "not_polished": 0}
+
+    def _proven(self, gap: float, violation: float) -> bool:
+        ok = bool(violation <= config.VARY_TOL and gap <= config.RANGE_GAP_TOL)
+        if ok:
+            self.stats["max_gap"] = max(self.stats["max_gap"], float(gap))
+        return ok
+
+    def accepts(self, res, c) -> bool:
+        """Whether the answer ``res`` (scipy's, marked optimal) of min c.x over S is
+        proven by its multipliers."""
+        G, _, _ = self.problem.inequalities()
+        try:
+            nu = np.minimum(np.asarray(res.ineqlin.marginals, float), 0.0)
+            r = np.where(self.fn, np.maximum(np.asarray(res.lower.marginals, float), 0.0),
+                         0.0)
+        except AttributeError:          # no multipliers: nothing proven
+            return False
+        q = c - G.T @ nu - r
+        bound = q @ self.xa - np.linalg.norm(self.N.T @ q) * self.diam
+        gap = res.fun - bound if np.isfinite(bound) else np.inf
+        return self._proven(gap, self.problem.violation(res.x))
+
+    def hull_accepts(self, y, nu, c, H, h) -> bool:
+        """Whether y (d,), the answer of min c.y over {H y <= h} (hull coordinates about a
+        point of S), is proven by the multipliers nu <= 0 of H's rows; counts the LP."""
+        self.stats["lps"] += 1
+        nz = np.flatnonzero(nu)
+        bound = nu[nz] @ h[nz] - np.linalg.norm(c - H[nz].T @ nu[nz]) * self.diam
+        gap = c @ y - bound if np.isfinite(bound) else np.inf
+        return self._proven(gap, max(float(np.max(H @ y - h, initial=0.0)), 0.0))
+
+    def in_full_space(self, col: int, sgn: float, found):
+        """The question whose hull answer ``found`` (value, x (2m,)) was not proven, asked
+        in the 2m forces (:func:`_column_extreme`): (value, x)."""
+        self.stats["retried"] += 1
+        G, _, _ = self.problem.inequalities()
+        return _column_extreme(self.problem, G, bounds_list(*self.problem.bounds()), col,
+                               sgn, self, found)
+
+
+# a range LP whose answer is not proven is asked again this way, then that
+RANGE_RETRIES = ((("highs-ipm", {}),), (("highs-ds", {"presolve": False}),))
+
+
+def _column_extreme(problem: StaticsProblem, G, bnds, col: int, sgn: float,
+                    cert: RangeCertificate | None = None, found=None):
     """min (sgn = 1) or max (sgn = -1) of column ``col`` over S by one LP: (value, x (2m,)
     the optimum), or (-sgn inf, None) where S is unbounded that way. ``G``, ``bnds``: the
-    problem's inequalities and bounds_list. NumericalError if the LP fails."""
+    problem's inequalities and bounds_list. ``cert``: check each answer
+    (:class:`RangeCertificate`) and, unless proven, ask again by interior point, then by
+    dual simplex without presolve (``found``: an earlier answer (value, x) of the
+    question, the hull's simplex, not proven: those two alone are asked); when no answer
+    is proven, the most extreme point of S found (``found`` included) is
+    reported, counted as confirmed when two methods found it within
+    ``config.RANGE_GAP_TOL``, else as uncertified. NumericalError if the LP fails."""
     c = np.zeros(problem.n_columns)
     c[col] = sgn
-    res = solve_lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, bnds,
-                   known_feasible=True)
-    if res.status == 3:
-        return -sgn * np.inf, None
-    if res.status != 0:
-        raise NumericalError(f"range LP for column {col} failed: {res.message}")
-    return res.x[col], res.x
+    points = [] if found is None or problem.violation(found[1]) > config.VARY_TOL else [found]
+    msg = ""
+    if cert is not None and found is None:
+        cert.stats["lps"] += 1
+    # after a hull answer (a simplex's) the 2m forces are asked by the other methods
+    chain = (RANGE_RETRIES if found is not None else (None,) + RANGE_RETRIES) \
+        if cert is not None else (None,)
+    for k, attempts in enumerate(chain):
+        res = solve_lp(c, G, np.zeros(G.shape[0]), problem.A, problem.b, bnds,
+                       attempts=attempts, known_feasible=True)
+        if res.status == 3:
+            return -sgn * np.inf, None
+        if res.status != 0:
+            msg = res.message
+            continue
+        if cert is None or cert.accepts(res, c):
+            return res.x[col], res.x
+        cert.stats["retried"] += k == 0 and found is None
+        if problem.violation(res.x) <= config.VARY_TOL:
+            points.append((res.x[col], res.x))
+            if len(points) > 1 and abs(points[-1][0] - points[0][0]) <= config.RANGE_GAP_TOL:
+                break                   # two methods agree: no third opinion needed
+    if not points:
+        raise NumericalError(f"range LP for column {col} failed: {msg or 'no point of S'}")
+    value, x = min(points, key=lambda f: sgn * f[0])
+    agree = sum(abs(v - value) <= config.RANGE_GAP_TOL for v, _ in points) > 1
+    cert.stats["confirmed" if agree else "uncertified"] += 1
+    return value, x
 
 
-def column_ranges(problem: StaticsProblem, N=None, xa=None, columns=None):
+def column_ranges(problem: StaticsProblem, N=None, xa=None, columns=None, cert=None):
     """Min and max of every column over S: (fn_range, ft_range), each (m, 2).
 
     Columns that do not move within the affine hull (zero rows of N) are
     constant and are not solved for. With ``columns``: only those columns are
     solved, and the (2m, 2) table is returned (other rows NaN); an unbounded
-    side is +-inf.
+    side is +-inf. ``cert``: every answer checked (:class:`RangeCertificate`),
+    the hull's and the 2m forces' alike.
     """
     G, _, _ = problem.inequalities()
     lo, hi = problem.bounds()
@@ -344,7 +454,7 @@ def column_ranges(problem: StaticsProblem, N=None, xa=None, columns=None):
     todo = todo[~fixed]
     extreme = None                        # without a hull: one LP each in the 2m forces
     if N is not None and xa is not None and N.shape[1] <= config.HULL_RANGES_MAX_DIM:
-        extreme, order = _hull_extremes(G, N, xa, todo)
+        extreme, order = _hull_extremes(G, N, xa, todo, cert)
         todo = todo[order]
     for side, sgn in ((0, 1.0), (1, -1.0)):     # all minima, then all maxima
         for col in todo:
@@ -354,27 +464,43 @@ def column_ranges(problem: StaticsProblem, N=None, xa=None, columns=None):
             elif status == 3:
                 rng[col, side] = -sgn * np.inf
             else:
-                rng[col, side] = _column_extreme(problem, G, bnds, col, sgn)[0]
+                rng[col, side] = _column_extreme(problem, G, bnds, col, sgn, cert)[0]
     if columns is not None:
         return rng
     return rng[0::2].copy(), rng[1::2].copy()
 
 
-def _hull_extremes(G, N, xa, cols):
+def _hull_extremes(G, N, xa, cols, cert=None):
     """(``extreme(col, sgn)`` -> (status, min of sgn x[col] over S, times sgn), the order to
     ask them in): LPs in the affine hull's coordinates y (x = xa + N y; rows G N y <= -G xa
     as :class:`_HullLP`) by :class:`HullRanges`, warm-started, the columns ordered so
     that consecutive objectives are alike (few pivots between them). For large problems
     (a 1000-disk frame: 9 s where the LPs in the 2m forces took 14 min warm-started);
     exact up to the hull's own resolution (its implicit equalities are decided at
-    ``config.IMPLICIT_TOL``, 1e-9 <Fn>). Status as :meth:`HullRanges.minimum`."""
+    ``config.IMPLICIT_TOL``, 1e-9 <Fn>); each optimum polished to the exact vertex of
+    {H y <= h} (:func:`forcespace.space.lp.exact_vertex`, up to dim S =
+    ``config.RANGE_EXACT_MAX_DIM``), so that bit-different data give the same ends to
+    ~1e-13. Status as :meth:`HullRanges.minimum`. ``cert``:
+    each optimum checked by its multipliers (:meth:`RangeCertificate.hull_accepts`), one
+    not proven asked again in the 2m forces."""
     H, h = np.asarray(G @ N), -(G @ xa)
     keep = np.linalg.norm(H, axis=1) > config.RANGE_FLAT_ROW
-    hull = HullRanges(H[keep], h[keep], tol=config.RANGE_LP_TOL)
+    H, h = H[keep], h[keep]
+    hull = HullRanges(H, h, tol=config.RANGE_LP_TOL)
+    exact = N.shape[1] <= config.RANGE_EXACT_MAX_DIM
 
     def extreme(col, sgn):
-        status, v = hull.minimum(sgn * N[col])
-        return status, (xa[col] + sgn * v if status == 0 else None)
+        c = sgn * N[col]
+        status, v = hull.minimum(c, exact=exact)
+        if status != 0:
+            return status, None
+        if cert is not None and exact:
+            cert.stats["polished" if hull.polished > 0 else "exact" if hull.polished == 0
+                       else "not_polished"] += 1
+        if cert is None or cert.hull_accepts(hull.y, -hull.mu, c, H, h):
+            return 0, xa[col] + sgn * v
+        x = xa + N @ hull.y
+        return 0, cert.in_full_space(col, sgn, (x[col], x))[0]
     return extreme, similar_order(N[cols]) if cols.size else np.zeros(0, np.int64)
 
 
