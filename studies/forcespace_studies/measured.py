@@ -375,9 +375,9 @@ def _text(rt, cond) -> str:
         "back; S of the same region compared with the native file's (the paper's slice; for "
         "PeGS and PeGS2, whose frames have no period, the slice minus the disks with a "
         "contact across the periodic seam, on both). The ranges come from warm-started LPs "
-        "in S's affine hull, whose resolution is the hull's (implicit equalities decided at "
-        "config.IMPLICIT_TOL = 1e-9 <Fn>): two computations on bit-different inputs may "
-        "differ by about that much.",
+        "in S's affine hull, each answer checked by its multipliers and polished to the "
+        "exact vertex (HiGHS stops at a basis optimal to its 1e-10 tolerances, which left "
+        "ends up to 1.6e-9 <Fn> apart on bit-different inputs before the polish).",
         "", "| mu | format | pairs | equal dim S | max range difference [<Fn>] |",
         "| --- | --- | --- | --- | --- |"]
     for mu in sorted({r["mu"] for r in rt}):

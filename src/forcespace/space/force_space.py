@@ -24,9 +24,8 @@ from ..result import Computed
 from .conic import CONE_FACE_TOL, analyze_conic, nearest_admissible
 from .lp import eq_system, unit_problem
 from .questions import (RangeCertificate, boundedness, centre_and_radius, column_ranges,
-                        feasibility,
-                        implicit_kinds, interior_max_sum_fn, interior_strict_rows, tight_rows,
-                        scaled_diagnosis, varying_contacts)
+                        feasibility, implicit_kinds, interior_max_sum_fn, interior_strict_rows,
+                        tight_rows, scaled_diagnosis, varying_contacts)
 
 _SCALED = ("fn_range", "ft_range", "centre", "affine_point", "radius", "max_sum_fn")
 RANGE_CERTIFICATE_CONVENTION = (
