@@ -304,7 +304,7 @@ class ForceSpace(Computed):
              "n_zero_force": None if r.get("zero_contacts") is None else self.n_zero,
              "max_sum_fn": r.get("max_sum_fn"), "force_scale": r.get("force_scale"),
              "centre_radius": r.get("radius")}
-        if r.get("fn_range") is not None:
+        if r.get("fn_range") is not None and self.problem.dim != 3:     # LP ranges: disks
             d["range_certificate"] = None if r.get("range_certificate") is None else dict(
                 r["range_certificate"], convention=RANGE_CERTIFICATE_CONVENTION)
         if r.get("infeasibility") is not None:
