@@ -742,7 +742,9 @@ def _laws_panel(ax, by_n, fits, mus, scope, win):
         daic = {"saturating": 0.0, "power": models["aic_power_minus_saturating"],
                 "logarithmic": models["aic_log_minus_saturating"]}
         for law, ls in LAW_STYLE.items():
-            ax.plot(grid, np.exp(law_log_eta(models, law, grid)), ls, color=c, lw=1,
+            with np.errstate(invalid="ignore"):     # a logarithmic law below 0: not drawn
+                curve = np.exp(law_log_eta(models, law, grid))
+            ax.plot(grid, curve, ls, color=c, lw=1,
                     label=rf"$\mu$ = {mu:g}: {law} law, $\Delta$AIC {daic[law]:+.1f}")
     ax.axvspan(n_max, LAWS_DRAWN_TO, color="0.92", lw=0, zorder=0)
     ax.text(np.sqrt(n_max * LAWS_DRAWN_TO), 0.98, "no data:\nlaws extrapolated",
@@ -752,7 +754,7 @@ def _laws_panel(ax, by_n, fits, mus, scope, win):
     ax.set(xscale="log", yscale="log", xlabel="n (disks in the box)",
            ylabel=r"$\eta$ (dimensionless)",
            title=f"three laws fitted to the billiard packings, {where}\n"
-                 "(least squares on log eta; $\Delta$AIC against the saturating law)")
+                 r"(least squares on log eta; $\Delta$AIC against the saturating law)")
     if lows:                    # room below the data for the legend
         ax.set_ylim(bottom=min(lows) / 8)
     ax.legend(fontsize=5.5, loc="lower right", ncol=2)
