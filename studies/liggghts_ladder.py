@@ -154,7 +154,8 @@ def main(argv=None) -> int:
             rec = fut.result()
             f.write_text(json.dumps(rec, indent=1))
             print(f"{f.stem}: steps {rec['steps']}, converged {rec['converged']}, "
-                  f"distance {rec['relative_distance']:.2e}", file=sys.stderr, flush=True)
+                  f"distance {_cell(rec['relative_distance'], '{:.2e}')}", file=sys.stderr,
+                  flush=True)
     rows = [json.loads(f.read_text()) for f in sorted((out / "runs").glob("*.json"))]
     (out / "ladder.md").write_text(table(rows))
     print(table(rows))
