@@ -43,6 +43,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from forcespace import read_packing  # noqa: E402
+from forcespace.extend import write_json  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE / "out"
@@ -229,9 +230,7 @@ def merge_json(path: Path, key: str, value) -> None:
     """Set ``key`` of the JSON object in ``path`` (other keys kept; atomic replace)."""
     data = json.loads(path.read_text()) if path.is_file() else {}
     data[key] = _json_ready(value)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(data, indent=2))
-    os.replace(tmp, path)
+    write_json(path, data, indent=2)      # atomic; NaN as null (strict JSON)
 
 
 def _num(v, fmt: str) -> str:

@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from forcespace.extend import write_json
+
 from .bench_engine import OLD_COMMIT, PACKINGS, _children_cpu, log, old_sources
 
 # the CLI without its plug-ins (the old CLI cannot load today's studies plug-in; neither
@@ -111,9 +113,7 @@ def merge_analysis(path: Path, section: dict) -> None:
     """Write ``section`` as key "analysis" of the JSON file, other keys kept (atomic)."""
     data = json.loads(path.read_text()) if path.is_file() else {}
     data["analysis"] = section
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=float))
-    os.replace(tmp, path)
+    write_json(path, data, indent=2)      # atomic; NaN as null (strict JSON)
 
 
 def main(argv=None) -> int:

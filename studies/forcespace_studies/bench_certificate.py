@@ -34,6 +34,7 @@ import time
 from pathlib import Path
 
 from forcespace import read_packing
+from forcespace.extend import write_json
 
 from .bench_engine import exponent
 
@@ -115,9 +116,7 @@ def merge(path: Path, mu: float, n: int, protocol: str, row: dict) -> None:
     sec["jams"][f"{mu:g}"] = [rows[k] for k in sorted(rows)]
     sec["exponent"] = {m: {pr: exponent([r for r in rs if r["n"] <= 5000], pr)
                            for pr in PROTOCOLS} for m, rs in sec["jams"].items()}
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=float))
-    os.replace(tmp, path)
+    write_json(path, data, indent=2)      # atomic; NaN as null (strict JSON)
 
 
 def main(argv=None) -> int:

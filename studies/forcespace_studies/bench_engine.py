@@ -45,7 +45,7 @@ import numpy as np
 from forcespace import read_packing
 from forcespace.extend import (add_contact_velocities, Contacts, kernel_body_index, Motion,
                                N_WALL_SLOTS, nlgs_solve as solve, row_order, SLOT_TOP,
-                               SweepSettings)
+                               SweepSettings, write_json)
 
 OLD_COMMIT = "938734f"
 PACKINGS = {200: "studies/packings/paper_mu0.1.h5",
@@ -352,9 +352,7 @@ def merge(path: Path, section: dict) -> None:
         section["jam_updates_exponent"] = {w: exponent(section["jams"], w, "updates")
                                            for w in ("old", "new")}
     data["engine"] = {**old, **section}
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=float))
-    os.replace(tmp, path)
+    write_json(path, data, indent=2)      # atomic; NaN as null (strict JSON)
 
 
 def main(argv=None) -> int:

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from forcespace import read_packing
-from forcespace.extend import write_csv_pair
+from forcespace.extend import write_csv_pair, write_json
 
 from .bench_engine import _children_cpu, log
 
@@ -95,9 +95,7 @@ def main(argv=None) -> int:
                         "commands": "forcespace convert csv particles.csv contacts.csv ...; "
                                     "forcespace check frame.h5 --json [--samples N]",
                         "cases": cases}
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=float))
-    os.replace(tmp, path)
+    write_json(path, data, indent=2)      # atomic; NaN as null (strict JSON)
     log(f"wrote section 'measured' of {path}")
     return 0
 

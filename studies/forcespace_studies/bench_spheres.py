@@ -34,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+from forcespace.extend import write_json
+
 from .bench_certificate import JAM, children_cpu
 
 SCENE = "paper3d_certified"
@@ -136,9 +138,7 @@ def merge(path: Path, key: str, value) -> None:
         sec["jams"][f"{mu:g}"] = [rows[k] for k in sorted(rows)]
     else:
         sec[key] = value
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=float))
-    os.replace(tmp, path)
+    write_json(path, data, indent=2)      # atomic; NaN as null (strict JSON)
 
 
 def main(argv=None) -> int:
