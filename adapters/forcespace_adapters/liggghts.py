@@ -163,7 +163,7 @@ class LiggghtsOptions:
         check_options(self, checks, source)
 
 
-def _fmt(v: float) -> str:
+def deck_number(v: float) -> str:
     """A deck number, exactly (repr); NumericalError if it is not finite (LIGGGHTS would
     read inf or nan as a number and run with it)."""
     v = float(v)
@@ -171,6 +171,20 @@ def _fmt(v: float) -> str:
         raise NumericalError(f"a LIGGGHTS deck number came out {v} (from the options and "
                              "the packing's scale); nothing was written")
     return repr(v)
+
+
+def material_fixes(kn: float, kt: float, gamma: float, mu: float, wmu: float) -> str:
+    """The deck's material block (2-D and 3-D decks): normal and tangential stiffness and
+    damping for every pair of atom types (1 grains, 2 walls), friction mu between grains
+    and wmu where a wall takes part."""
+    def pairs(name, grains, wall=None):
+        wall = grains if wall is None else wall
+        return (f"fix m{name[0]} all property/global {name[1]} peratomtypepair 2 "
+                f"{deck_number(grains)} {deck_number(wall)} {deck_number(wall)} "
+                f"{deck_number(wall)}")
+    return "\n".join(pairs(k, *v) for k, v in (
+        ((1, "kn"), (kn,)), ((2, "kt"), (kt,)), ((3, "gamman"), (gamma,)),
+        ((4, "gammat"), (gamma,)), ((5, "coefficientFriction"), (mu, wmu))))
 
 
 def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None = None,
@@ -234,7 +248,7 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
         ramp_cmds = f"run {opt.ramp_steps}"
     else:   # servo target raised in n_ramp steps while the body loads ramp continuously
         ramp_cmds = "\n".join(
-            (f"fix_modify top servo/target_val {_fmt(problem.top_plate[1] * (k + 1) / n_ramp)}\n"
+            (f"fix_modify top servo/target_val {deck_number(problem.top_plate[1] * (k + 1) / n_ramp)}\n"
              if k else "") + f"run {ramp_len} start 0 stop {ramp_len * n_ramp}"
             for k in range(n_ramp))
     plate = problem.top_plate
@@ -258,7 +272,7 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
             x0_, x1_ = xs[k], xs[k + 1]
             for tri in (((x0_, -0.4), (x1_, -0.4), (x1_, 0.4)), ((x0_, -0.4), (x1_, 0.4), (x0_, 0.4))):
                 top_lines += ["facet normal 0 -1 0", "outer loop"]
-                top_lines += [f"vertex {_fmt(xx)} {_fmt(y_top - ys)} {_fmt(zz)}" for xx, zz in tri]
+                top_lines += [f"vertex {deck_number(xx)} {deck_number(y_top - ys)} {deck_number(zz)}" for xx, zz in tri]
                 top_lines += ["endloop", "endfacet"]
         top_lines.append("endsolid top")
         plate_cmds = f"""
@@ -266,15 +280,15 @@ def write_deck(problem: SoftProblem, directory, options: LiggghtsOptions | None 
 #   by the servo mesh module (mesh/surface/stress/servo): it moves along y only, with velocity
 #   v = mobility*(target - force on it) along -y (P controller, mobility = {mobility:g}, kp = {kp:g}), capped at vel_max;
 #   the target ramps with the loads: fix_modify servo/target_val between ramp chunks
-fix top all mesh/surface/stress/servo file top.stl type 2 com {_fmt(0.5 * W)} {_fmt(y_top - ys)} 0.0 ctrlPV force axis 0.0 -1.0 0.0 target_val {_fmt(T / n_ramp)} vel_max {_fmt(vmax)} kp {_fmt(kp)}
+fix top all mesh/surface/stress/servo file top.stl type 2 com {deck_number(0.5 * W)} {deck_number(y_top - ys)} 0.0 ctrlPV force axis 0.0 -1.0 0.0 target_val {deck_number(T / n_ramp)} vel_max {deck_number(vmax)} kp {deck_number(kp)}
 fix wallt all wall/gran model hooke/stiffness tangential history mesh n_meshes 1 meshes top store_force yes limitForce on
 compute ftop all reduce sum f_force_wallt[2]
 variable ptop equal -c_ftop
-variable perr equal abs(c_ftop+{_fmt(T)})
+variable perr equal abs(c_ftop+{deck_number(T)})
 """
-        cond = f'"${{rmax}} < {_fmt(tol_abs)} && ${{perr}} < {_fmt(tol_plate)}"'
-        integral_on = (f'if "${{pion}} == 0 && ${{perr}} < {_fmt(100 * tol_plate)}" then '
-                       f'"fix_modify top ctrlParam {_fmt(kp)} {_fmt(ki)} 0.0" '
+        cond = f'"${{rmax}} < {deck_number(tol_abs)} && ${{perr}} < {deck_number(tol_plate)}"'
+        integral_on = (f'if "${{pion}} == 0 && ${{perr}} < {deck_number(100 * tol_plate)}" then '
+                       f'"fix_modify top ctrlParam {deck_number(kp)} {deck_number(ki)} 0.0" '
                        '"variable pion delete" "variable pion equal 1" '
                        '"print \'FORCESPACE_PLATE_INTEGRAL on\'"\n')
         thermo_extra = " v_ptop"
@@ -284,7 +298,7 @@ variable perr equal abs(c_ftop+{_fmt(T)})
     else:
         plate_cmds, thermo_extra, wall_cols, stop_plate, plate_print = "", "", "", "", ""
         integral_on, tol_plate, n_top, ki = "", None, 0, None
-        cond = f'"${{rmax}} < {_fmt(tol_abs)}"'
+        cond = f'"${{rmax}} < {deck_number(tol_abs)}"'
 
     def dumps(tag, every, prefix):
         """Dump commands: contacts (local) and atoms (custom) every ``every`` steps."""
@@ -305,16 +319,16 @@ variable perr equal abs(c_ftop+{_fmt(T)})
         with open(tmp / "data.lmp", "w") as f:
             f.write("LAMMPS data file written by forcespace_adapters.liggghts\n\n")
             f.write(f"{ids.size} atoms\n2 atom types\n\n")
-            f.write(f"0.0 {_fmt(W)} xlo xhi\n{_fmt(ylo - ys)} {_fmt(yhi - ys)} ylo yhi\n"
-                    f"{_fmt(-zhalf)} {_fmt(zhalf)} zlo zhi\n\nAtoms\n\n")
+            f.write(f"0.0 {deck_number(W)} xlo xhi\n{deck_number(ylo - ys)} {deck_number(yhi - ys)} ylo yhi\n"
+                    f"{deck_number(-zhalf)} {deck_number(zhalf)} zlo zhi\n\nAtoms\n\n")
             for i in ids:
-                f.write(f"{i + 1} 1 {_fmt(2 * p.r[i])} {_fmt(np.broadcast_to(p.density, p.r.shape)[i])} "
-                        f"{_fmt(x[i])} {_fmt(p.y[i] - ys)} 0.0\n")
+                f.write(f"{i + 1} 1 {deck_number(2 * p.r[i])} {deck_number(np.broadcast_to(p.density, p.r.shape)[i])} "
+                        f"{deck_number(x[i])} {deck_number(p.y[i] - ys)} 0.0\n")
         for comp, name in ((0, "load_fx.txt"), (1, "load_fy.txt")):
             with open(tmp / name, "w") as f:
                 f.write(f"# fixed load component {'xy'[comp]} on each disk [F0]\n{ids.size}\n")
                 for i in ids:
-                    f.write(f"{i + 1} {_fmt(problem.load[i, comp])}\n")
+                    f.write(f"{i + 1} {deck_number(problem.load[i, comp])}\n")
         if plate is not None:
             top_doc = (f"# top plate: load-controlled frictionless servo mesh (see below), target force "
                        f"{plate[1]:g} F0 ramped in 20 steps;\n#   gravity = fixed per-disk loads in "
@@ -355,20 +369,16 @@ communicate single vel yes
 units lj
 dimension 2
 read_data data.lmp
-neighbor {_fmt(skin)} bin
+neighbor {deck_number(skin)} bin
 neigh_modify delay 0
 
-fix m1 all property/global kn peratomtypepair 2 {_fmt(kn)} {_fmt(kn)} {_fmt(kn)} {_fmt(kn)}
-fix m2 all property/global kt peratomtypepair 2 {_fmt(kt)} {_fmt(kt)} {_fmt(kt)} {_fmt(kt)}
-fix m3 all property/global gamman peratomtypepair 2 {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)}
-fix m4 all property/global gammat peratomtypepair 2 {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)} {_fmt(gamma)}
-fix m5 all property/global coefficientFriction peratomtypepair 2 {_fmt(mu)} {_fmt(wmu)} {_fmt(wmu)} {_fmt(wmu)}
+{material_fixes(kn, kt, gamma, mu, wmu)}
 
 pair_style gran model hooke/stiffness tangential history limitForce on
 pair_coeff * *
-timestep {_fmt(dt)}
+timestep {deck_number(dt)}
 
-fix wall all wall/gran model hooke/stiffness tangential history primitive type 2 yplane {_fmt(ybot - ys)} store_force yes limitForce on
+fix wall all wall/gran model hooke/stiffness tangential history primitive type 2 yplane {deck_number(ybot - ys)} store_force yes limitForce on
 fix integr all nve/sphere
 
 variable s equal ramp(0.0,1.0){plate_cmds}

@@ -40,14 +40,10 @@ from forcespace import SpherePacking
 from forcespace.errors import InputError
 from forcespace.extend import BOTTOM, TOP, check_output_dir, writing_run_dir
 
-from .liggghts import (UNITS, LiggghtsOptions, LiggghtsError, precision_floor,
-                       read_dump_table, run_files)
+from .liggghts import (UNITS, LiggghtsOptions, LiggghtsError, deck_number, material_fixes,
+                       precision_floor, read_dump_table, run_files)
 
 DECK_VERSION_3D = 1
-
-
-def _fmt(v: float) -> str:
-    return repr(float(v))
 
 
 def plate_mesh(lx: float, ly: float, z: float, cell: float) -> str:
@@ -61,7 +57,7 @@ def plate_mesh(lx: float, ly: float, z: float, cell: float) -> str:
             x0, x1, y0, y1 = xs[i], xs[i + 1], ys[j], ys[j + 1]
             for tri in (((x0, y0), (x1, y1), (x1, y0)), ((x0, y0), (x0, y1), (x1, y1))):
                 lines += ["facet normal 0 0 -1", "outer loop"]
-                lines += [f"vertex {_fmt(a)} {_fmt(b)} {_fmt(z)}" for a, b in tri]
+                lines += [f"vertex {deck_number(a)} {deck_number(b)} {deck_number(z)}" for a, b in tri]
                 lines += ["endloop", "endfacet"]
     lines.append("endsolid top")
     return "\n".join(lines) + "\n"
@@ -100,7 +96,7 @@ def deck_quantities(p: SpherePacking, opt: LiggghtsOptions, exported) -> dict:
 def _script(p: SpherePacking, opt: LiggghtsOptions, q: dict, gravity: bool) -> str:
     """The input script of a 3-D deck (header comment, set-up, ramp, checked chunks,
     output)."""
-    f = _fmt
+    f = deck_number
     kn, kt, g = q["kn_abs"], q["kt"], q["gamma"]
     mu, wmu, T = float(p.mu), float(p.plate_mu), float(p.top_force)
     lx, ly = p.lateral
@@ -142,11 +138,7 @@ read_data data.lmp
 neighbor {f(q['skin'])} bin
 neigh_modify delay 0
 
-fix m1 all property/global kn peratomtypepair 2 {f(kn)} {f(kn)} {f(kn)} {f(kn)}
-fix m2 all property/global kt peratomtypepair 2 {f(kt)} {f(kt)} {f(kt)} {f(kt)}
-fix m3 all property/global gamman peratomtypepair 2 {f(g)} {f(g)} {f(g)} {f(g)}
-fix m4 all property/global gammat peratomtypepair 2 {f(g)} {f(g)} {f(g)} {f(g)}
-fix m5 all property/global coefficientFriction peratomtypepair 2 {f(mu)} {f(wmu)} {f(wmu)} {f(wmu)}
+{material_fixes(kn, kt, g, mu, wmu)}
 
 pair_style gran model hooke/stiffness tangential history limitForce on
 pair_coeff * *
@@ -220,18 +212,18 @@ def write_deck3(packing: SpherePacking, directory, options: LiggghtsOptions | No
     with writing_run_dir(directory) as tmp:
         rho = np.broadcast_to(np.asarray(p.density, float), p.r.shape)
         xy = np.mod(p.pos[:, :2], np.array([lx, ly]))
-        rows = [f"{i + 1} 1 {_fmt(2 * p.r[i])} {_fmt(rho[i])} {_fmt(xy[i, 0])} "
-                f"{_fmt(xy[i, 1])} {_fmt(p.pos[i, 2] - zs)}" for i in exported]
+        rows = [f"{i + 1} 1 {deck_number(2 * p.r[i])} {deck_number(rho[i])} {deck_number(xy[i, 0])} "
+                f"{deck_number(xy[i, 1])} {deck_number(p.pos[i, 2] - zs)}" for i in exported]
         (tmp / "data.lmp").write_text(
             "LAMMPS data file written by forcespace_adapters.liggghts3d\n\n"
-            f"{exported.size} atoms\n2 atom types\n\n0.0 {_fmt(lx)} xlo xhi\n"
-            f"0.0 {_fmt(ly)} ylo yhi\n{_fmt(q['zlo'])} {_fmt(q['zhi'])} zlo zhi\n\nAtoms\n\n"
+            f"{exported.size} atoms\n2 atom types\n\n0.0 {deck_number(lx)} xlo xhi\n"
+            f"0.0 {deck_number(ly)} ylo yhi\n{deck_number(q['zlo'])} {deck_number(q['zhi'])} zlo zhi\n\nAtoms\n\n"
             + "\n".join(rows) + "\n")
         if gravity:
             weight = -p.mass * p.gravity
             (tmp / "load_fz.txt").write_text(
                 f"# fixed load along z on each sphere (gravity) [F0]\n{exported.size}\n"
-                + "".join(f"{i + 1} {_fmt(weight[i])}\n" for i in exported))
+                + "".join(f"{i + 1} {deck_number(weight[i])}\n" for i in exported))
         (tmp / "top.stl").write_text(plate_mesh(lx, ly, p.z_top - zs, float(p.r.min())))
         (tmp / "in.liggghts").write_text(_script(p, opt, q, gravity))
         meta = {"deck_version": DECK_VERSION_3D, "dimension": 3, "code": "liggghts",

@@ -80,8 +80,8 @@ def test_the_deck_never_holds_a_number_that_is_not_finite(tmp_path):
     from forcespace.errors import NumericalError
     from forcespace_adapters import liggghts
     with pytest.raises(NumericalError, match="came out inf"):
-        liggghts._fmt(float("inf"))
-    assert liggghts._fmt(0.1) == "0.1"
+        liggghts.deck_number(float("inf"))
+    assert liggghts.deck_number(0.1) == "0.1"
 
 
 @pytest.mark.parametrize("sampler, option, value, field", [
