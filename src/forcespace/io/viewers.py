@@ -101,6 +101,29 @@ def _box_y(p):
 DISK_TRANSPARENCY = 0.6     # OVITO's Transparency of the disks' spheres (0 opaque, 1 unseen)
 
 
+def _bond_ends(p, n: int, shift):
+    """What the disks' and the spheres' OVITO tables share: bodies are particles 1..n, the
+    q-th wall contact a particle n + q + 1 of its own at its point. ``shift`` (n,) or
+    (n, 2): the periodic images the bodies were wrapped by. Returns wall (w,) the wall
+    contacts' indices, owner (w,) the body each touches, body (n + w,) the body column
+    (a wall particle: its wall's index), id1, id2 (Nc,) the bond ends, img (Nc,) or (Nc, 2)
+    the image of id2 relative to id1 after wrapping (0 at walls)."""
+    wall = np.flatnonzero((p.a < 0) | (p.b < 0))
+    wall_is_a = p.a[wall] < 0
+    owner = np.where(wall_is_a, p.b[wall], p.a[wall])
+    pid = n + 1 + np.arange(wall.size)
+    id1 = np.where(p.a >= 0, p.a + 1, 0)
+    id2 = np.where(p.b >= 0, p.b + 1, 0)
+    id1[wall[wall_is_a]] = pid[wall_is_a]
+    id2[wall[~wall_is_a]] = pid[~wall_is_a]
+    img = p.image.astype(np.int64).copy()
+    both = (p.a >= 0) & (p.b >= 0)
+    img[both] += (shift[p.b[both]] - shift[p.a[both]]).astype(np.int64)
+    img[~both] = 0
+    body = np.concatenate([np.arange(n), np.where(wall_is_a, p.a[wall], p.b[wall])])
+    return wall, owner, body.astype(np.int64), id1, id2, img
+
+
 def ovito_particles(packing):
     """The particles of ``packing.dump`` and the bond ends of ``contacts.dump``:
     (table dict of (n + w,) columns id, type, x, y, radius, rattler, body; id1 (Nc,),
@@ -112,28 +135,12 @@ def ovito_particles(packing):
     if p.periodic_x:
         x = np.where(x >= p.width, x - p.width, x)     # round-off at the right edge
     rat = p.rattlers()
-    wall = np.flatnonzero((p.a < 0) | (p.b < 0))
+    wall, owner, body, id1, id2, img = _bond_ends(p, n, shift)
     w = wall.size
     ids = np.arange(1, n + w + 1)
     typ = np.concatenate([np.where(rat, RATTLER, DISK), np.full(w, WALL_POINT)])
-    px, py = np.concatenate([x, np.zeros(w)]), np.concatenate([p.y, np.zeros(w)])
-    body = np.concatenate([np.arange(n), np.zeros(w, np.int64)])
-    id1 = np.where(p.a >= 0, p.a + 1, 0)
-    id2 = np.where(p.b >= 0, p.b + 1, 0)
-    img = p.image.astype(np.int64).copy()
-    both = (p.a >= 0) & (p.b >= 0)
-    img[both] += (shift[p.b[both]] - shift[p.a[both]]).astype(np.int64)
-    img[~both] = 0
-    for q, k in enumerate(wall):
-        disk = p.b[k] if p.a[k] < 0 else p.a[k]
-        pid = n + q + 1
-        if p.a[k] < 0:
-            id1[k] = pid
-        else:
-            id2[k] = pid
-        px[n + q] = p.point[k, 0] - shift[disk] * p.width
-        py[n + q] = p.point[k, 1]
-        body[n + q] = p.a[k] if p.a[k] < 0 else p.b[k]
+    px = np.concatenate([x, p.point[wall, 0] - shift[owner] * p.width])
+    py = np.concatenate([p.y, p.point[wall, 1]])
     table = {"id": ids, "type": typ, "x": px, "y": py,
              "radius": np.concatenate([p.r, np.full(w, WALL_POINT_RADIUS)]),
              "rattler": np.concatenate([rat.astype(np.int64), np.zeros(w, np.int64)]),
@@ -327,26 +334,12 @@ def _sphere_particles(p):
     shift = np.floor(p.pos[:, :2] / size)
     xy = p.pos[:, :2] - shift * size
     xy = np.where(xy >= size, xy - size, xy)          # round-off at the far edges
-    wall = np.flatnonzero((p.a < 0) | (p.b < 0))
+    wall, owner, body, id1, id2, img = _bond_ends(p, n, shift)
     w = wall.size
     rat = p.rattlers()
-    pts = np.vstack([np.column_stack([xy, p.pos[:, 2]]), np.zeros((w, 3))])
-    body = np.concatenate([np.arange(n), np.zeros(w, np.int64)])
-    id1 = np.where(p.a >= 0, p.a + 1, 0)
-    id2 = np.where(p.b >= 0, p.b + 1, 0)
-    img = p.image.astype(np.int64).copy()
-    both = (p.a >= 0) & (p.b >= 0)
-    img[both] += (shift[p.b[both]] - shift[p.a[both]]).astype(np.int64)
-    img[~both] = 0
-    for q, k in enumerate(wall):
-        sphere = p.b[k] if p.a[k] < 0 else p.a[k]
-        if p.a[k] < 0:
-            id1[k] = n + q + 1
-        else:
-            id2[k] = n + q + 1
-        pts[n + q] = p.point[k]
-        pts[n + q, :2] -= shift[sphere] * size
-        body[n + q] = p.a[k] if p.a[k] < 0 else p.b[k]
+    at_wall = np.array(p.point[wall], float)
+    at_wall[:, :2] -= shift[owner] * size
+    pts = np.vstack([np.column_stack([xy, p.pos[:, 2]]), at_wall])
     table = {"id": np.arange(1, n + w + 1),
              "type": np.concatenate([np.where(rat, RATTLER, DISK), np.full(w, WALL_POINT)]),
              "x": pts[:, 0], "y": pts[:, 1], "z": pts[:, 2],
