@@ -69,3 +69,20 @@ def sphere_on_supports(pos, r, mu, load):
                                 rattlers=np.zeros(n, bool))
     prob.b[:3] -= np.asarray(load, float)
     return p, prob
+
+
+def conic_problem(rows, b, mu):
+    """A SphereStaticsProblem of len(mu) contacts with the equality rows ``rows`` (k, 3m)
+    and right-hand side ``b`` (no spheres: S = {A x = b, x in the cones})."""
+    import scipy.sparse as sp
+
+    from forcespace.model.sphere_problem import SphereStaticsProblem
+    m = len(mu)
+    frame = np.tile(np.eye(3), (m, 1, 1))
+    return SphereStaticsProblem(
+        kind="hand", height=None, A=sp.csr_matrix(np.asarray(rows, float)),
+        b=np.asarray(b, float), mu=np.asarray(mu, float), contacts=np.arange(m),
+        spheres=np.zeros(0, np.int64), rattlers=np.zeros(0, np.int64),
+        load_contacts=np.zeros(0, np.int64), ends=np.full((m, 2), -1), frame=frame,
+        x_jammed=np.zeros(3 * m), force_scale=1.0, mass=np.zeros(0), radius=np.zeros(0),
+        meta={"packing_fn": np.zeros(m), "packing_ft": np.zeros((m, 3))})

@@ -69,7 +69,6 @@ _SURFACE = {
     "pyramid_fn_ranges": ("space.conic", "pyramid_fn_ranges"),
     # sampling
     "by_chain": ("sampling.diagnostics", "by_chain"),
-    "ConicHitAndRun": ("sampling.conic_walk", "ConicHitAndRun"),
     # measures
     "rearrangement_depth": ("measures", "rearrangement_depth"),
     "surface_disk": ("measures", "surface_disk"),

@@ -1,11 +1,12 @@
 """Measures of the force ensemble: eta, indeterminacy structure, difference fields.
 
-Samples are arrays (k, 2m) in problem column order (:mod:`forcespace.model.problem`): columns
-2j, 2j+1 are fn, ft of unknown contact j [F0].
+Samples are arrays (k, c m) in problem column order (:mod:`forcespace.model.problem`): columns
+2j, 2j+1 are fn, ft of unknown contact j [F0] (disks, c = 2 ``per_contact``; spheres, c = 3:
+3j, 3j+1, 3j+2 are fn, f1, f2, :mod:`forcespace.model.sphere_problem`).
 
 eta (the paper's force ambiguity, Eq. 2), exactly:
-    F_i = (fn_i, ft_i) the force vector of contact i (the frame is fixed per
-    contact, so |.| is the Euclidean vector norm),
+    F_i = (fn_i, ft_i) the force vector of contact i ((fn_i, f1_i, f2_i) for spheres; the
+    frame is fixed per contact, so |.| is the Euclidean vector norm),
     dF_i^2 = mean over samples of |F_i - mean_samples(F_i)|^2,
     |F_i|  = mean over samples of |F_i|,
     eta = mean_i dF_i / mean_i |F_i|,
@@ -22,20 +23,21 @@ from . import config
 from .errors import InputError, require_array
 
 
-def _check(samples):
+def _check(samples, per_contact: int = 2):
     X = np.asarray(samples, float)
-    if X.ndim != 2 or X.shape[1] % 2 or X.shape[0] < 1:
-        raise InputError("samples", "shape", "must be (k >= 1, 2m)", got=X.shape)
+    if X.ndim != 2 or X.shape[1] % per_contact or X.shape[0] < 1:
+        raise InputError("samples", "shape", f"must be (k >= 1, {per_contact}m)", got=X.shape)
     if not np.all(np.isfinite(X)):
         raise InputError("samples", "values", "must be finite (found NaN/inf)")
     return X
 
 
-def contact_fluctuations(samples):
-    """(dF (m,), mean |F| (m,)) as defined in the module docstring [F0]."""
-    X = _check(samples)
-    k, m2 = X.shape
-    F = X.reshape(k, m2 // 2, 2)
+def contact_fluctuations(samples, per_contact: int = 2):
+    """(dF (m,), mean |F| (m,)) as defined in the module docstring [F0]; ``per_contact``
+    columns per contact (2 disks, 3 spheres)."""
+    X = _check(samples, per_contact)
+    k, mc = X.shape
+    F = X.reshape(k, mc // per_contact, per_contact)
     # deviations from the first sample first, then from their mean: the same numbers,
     # but identical samples (a determinate S, dim S = 0) give exactly 0, where the mean
     # of k equal floats is not always that float (eta ~ 6e-16 from round-off)
@@ -46,9 +48,10 @@ def contact_fluctuations(samples):
     return dF, mag
 
 
-def eta(samples) -> float:
-    """The force ambiguity eta = <dF> / <|F|> (module docstring)."""
-    dF, mag = contact_fluctuations(samples)
+def eta(samples, per_contact: int = 2) -> float:
+    """The force ambiguity eta = <dF> / <|F|> (module docstring; ``per_contact`` columns
+    per contact: 2 disks, 3 spheres)."""
+    dF, mag = contact_fluctuations(samples, per_contact)
     den = mag.mean()
     if den == 0:
         raise InputError("samples", "forces", "all forces are zero; eta undefined")
@@ -61,7 +64,7 @@ def distance_from_centre(samples, x0):
     Returns (l (k,), l0, lbar): distances of the samples and of x0 (the jammed
     state) from the centre [F0], and the mean sample distance lbar.
     """
-    X = _check(samples)
+    X = _check(samples, 1)      # any columns per contact
     x0 = require_array("distance_from_centre", "x0", x0, (X.shape[1],),
                        "a network in the samples' columns [F0]")
     c = X.mean(0)
@@ -259,21 +262,22 @@ def region_area(packing, problem) -> float:
     return float(packing.width * (hi - lo))
 
 
-def eta_interval(samples, chains, batches: int = 5, level: float = 0.95) -> dict:
+def eta_interval(samples, chains, batches: int = 5, level: float = 0.95,
+                 per_contact: int = 2) -> dict:
     """eta with its Monte-Carlo uncertainty from the chains: each chain cut into
     ``batches`` contiguous batches (long against the autocorrelation, the batch-means
     idea), the delete-one-batch jackknife over all of them (J = chains x batches):
     se = sqrt((J - 1) / J sum_j (eta_-j - mean)^2), and the Student-t interval at
     ``level``. {"eta", "se", "low", "high", "level", "batches"}; se None (no interval)
-    with fewer than 2 draws per batch."""
+    with fewer than 2 draws per batch. ``per_contact``: as :func:`eta`."""
     from scipy import stats
 
-    X = _check(samples)
+    X = _check(samples, per_contact)
     c = np.asarray(chains)
     if c.shape != (X.shape[0],):
         raise InputError("eta_interval", "chains", f"must have shape ({X.shape[0]},)",
                          got=c.shape)
-    value = eta(X)
+    value = eta(X, per_contact)
     groups = []
     for ch in np.unique(c):
         rows = np.flatnonzero(c == ch)
@@ -285,7 +289,7 @@ def eta_interval(samples, chains, batches: int = 5, level: float = 0.95) -> dict
     label = np.empty(X.shape[0], np.int64)
     for j, g in enumerate(groups):
         label[g] = j
-    loo = np.array([eta(X[label != j]) for j in range(len(groups))])
+    loo = np.array([eta(X[label != j], per_contact) for j in range(len(groups))])
     J = len(groups)
     se = float(np.sqrt((J - 1) / J * ((loo - loo.mean()) ** 2).sum()))
     half = float(stats.t.ppf(0.5 + level / 2, J - 1)) * se

@@ -4,7 +4,7 @@ a cone's apex or on one ray of it, S a single point, empty or unbounded."""
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from cases import sphere_on_supports
+from cases import conic_problem, sphere_on_supports
 
 from forcespace.errors import InputError
 from forcespace.model.sphere_problem import SphereStaticsProblem
@@ -14,18 +14,7 @@ from forcespace.space.force_space import ForceSpace
 P, H = 3.0, 2.0      # vertical and horizontal loads [F0]
 
 
-def abstract(rows, b, mu):
-    """A SphereStaticsProblem of len(mu) contacts with the equality rows ``rows`` (k, 3m)
-    and right-hand side ``b`` (no spheres: S = {A x = b, x in the cones})."""
-    m = len(mu)
-    frame = np.tile(np.eye(3), (m, 1, 1))
-    return SphereStaticsProblem(
-        kind="hand", height=None, A=sp.csr_matrix(np.asarray(rows, float)),
-        b=np.asarray(b, float), mu=np.asarray(mu, float), contacts=np.arange(m),
-        spheres=np.zeros(0, np.int64), rattlers=np.zeros(0, np.int64),
-        load_contacts=np.zeros(0, np.int64), ends=np.full((m, 2), -1), frame=frame,
-        x_jammed=np.zeros(3 * m), force_scale=1.0, mass=np.zeros(0), radius=np.zeros(0),
-        meta={"packing_fn": np.zeros(m), "packing_ft": np.zeros((m, 3))})
+abstract = conic_problem
 
 
 def lens(shift, mu=1.0):
@@ -191,48 +180,3 @@ def test_inscribed_pyramids_converge_to_the_cones_ranges():
         assert gap <= 3 * (1 - np.cos(np.pi / k))
         gaps.append(gap)
     assert gaps[0] > gaps[1] > gaps[2] > 0
-
-
-# ---- hit-and-run with exact chords ------------------------------------------------------
-def solid_cone(mu=0.5, F=1.0):
-    """S = {(fn1, f1, f2): |f| <= mu fn1, 0 <= fn1 <= F} (a second frictionless contact
-    takes F - fn1): a solid circular cone of height F, uniform law of fn1 with
-    P(fn1 <= s) = (s / F)^3, of |f_t| / (mu fn1) with P(<= q) = q^2."""
-    rows = np.zeros((1, 6))
-    rows[0, [0, 3]] = 1.0
-    return abstract(rows, [F], [mu, 0.0])
-
-
-def test_hit_and_run_is_uniform_on_a_solid_cone():
-    from scipy.stats import kstest
-
-    from forcespace.sampling.conic_walk import ConicHitAndRun
-    prob = solid_cone()
-    hr = ConicHitAndRun(1200, seed=3, chains=4, thin=5).compute(prob)
-    X = hr.samples
-    assert max(prob.violation(x) for x in X) <= 1e-9
-    fn = X[:, 0]
-    q = np.hypot(X[:, 1], X[:, 2]) / (0.5 * fn)
-    assert kstest(fn, lambda s: np.clip(s, 0, 1) ** 3).pvalue > 1e-3
-    assert kstest(q, lambda s: np.clip(s, 0, 1) ** 2).pvalue > 1e-3
-
-
-def test_the_chord_of_a_cone_is_exact():
-    from forcespace.sampling.conic_walk import cone_chords
-    # along f1 from the axis point (1, 0, 0): |f1| <= mu = 0.5 -> t in [-0.5, 0.5]
-    lo, hi = cone_chords([[1.0, 0, 0]], [[0.0, 1, 0]], [0.5])
-    np.testing.assert_allclose([lo[0], hi[0]], [-0.5, 0.5])
-    # along the axis: fn >= 0 only below, unbounded above
-    lo, hi = cone_chords([[1.0, 0.2, 0]], [[1.0, 0, 0]], [0.5])
-    assert lo[0] == pytest.approx(-0.6) and hi[0] == np.inf
-    # a random chord's ends lie on the cone's surface
-    rng = np.random.default_rng(0)
-    for _ in range(20):
-        p = np.r_[1.0, rng.uniform(-0.3, 0.3, 2)]
-        q = rng.normal(size=3)
-        lo, hi = cone_chords([p], [q], [0.5])
-        for t in (lo[0], hi[0]):
-            if np.isfinite(t):
-                e = p + t * q
-                assert 0.5 * e[0] - np.hypot(e[1], e[2]) == pytest.approx(0, abs=1e-12)
-                assert e[0] >= -1e-12

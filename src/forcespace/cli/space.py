@@ -143,7 +143,8 @@ def cmd_sample(args) -> int:
         from ..sampling.hit_and_run import HitAndRun
         sampler = HitAndRun(args.n, chains=args.chains, thin=args.thin, burn_in=args.burn_in,
                             direction=args.direction, **common)
-    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu)
+    packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu,
+                                    spheres=True)
     if not args.quiet:
         from ..kernels import compile_notice
         compile_notice(("forcespace.sampling", "forcespace.engine") if args.sampler == "relax"
@@ -359,8 +360,9 @@ def _register_sample(subparsers) -> None:
     p.add_argument("packing", metavar="PACK.h5")
     add_problem_args(p)
     p.add_argument("--sampler", choices=("relax", "hit-and-run", "billiard"), required=True,
-                   help="hit-and-run (uniform, the reference), billiard (uniform, fast at "
-                        "large dim S) or relax (the paper's walk)")
+                   help="hit-and-run (uniform, the reference; spheres: exact chords "
+                        "through the Coulomb cones), billiard (uniform, fast at large dim "
+                        "S) or relax (the paper's walk)")
     p.add_argument("-n", type=int, required=True, help="total number of samples wanted")
     p.add_argument("-o", "--output", required=True, metavar="ENS.h5")
     p.add_argument("--seed", type=int, default=0)

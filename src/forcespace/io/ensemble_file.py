@@ -12,8 +12,11 @@ Layout::
     /problem/contacts  (m,)  packing contact index of each unknown contact
     /problem/disks     (n,)  packing disk index of each interior disk
     /problem/mu        (m,)  Coulomb coefficient per unknown contact
-    /problem/x_jammed  (m, 2) the packing's (jammed) forces fn, ft     [F0]
-    /samples           (k, m, 2) sampled forces fn, ft per contact      [F0]
+    /problem/x_jammed  (m, c) the packing's (jammed) forces fn, ft     [F0]
+    /samples           (k, m, c) sampled forces fn, ft per contact      [F0]
+                       (c, the components per contact, is the file's data: 2 for disks,
+                       fn ft; 3 for spheres, fn f1 f2 in each contact's frame, with the
+                       dataset attribute columns naming them)
     /sample_chain      (k,)  chain that produced each sample
     /sample_violation  (k,)  max violation of S, relative to <Fn>       [1]
     /sample_checksum   (k,)  64-bit BLAKE2b of each sample as written   [1]
@@ -67,7 +70,7 @@ def fingerprint(problem: StaticsProblem, sampler: str, params: dict) -> str:
 
 
 def sample_checksums(X) -> np.ndarray:
-    """64-bit BLAKE2b of each sample (row of X (k, 2m)), as uint64 (k,)."""
+    """64-bit BLAKE2b of each sample (row of X (k, c m)), as uint64 (k,)."""
     X = np.ascontiguousarray(X, dtype=np.float64)
     return np.array([int.from_bytes(hashlib.blake2b(row.tobytes(), digest_size=8).digest(),
                                     "little") for row in X.reshape(X.shape[0], -1)],
@@ -112,7 +115,8 @@ def create(path, problem: StaticsProblem, sampler: str, params: dict, setup: dic
            setup_describe: dict, checkpoint: dict, checkpoint_attrs: dict,
            tolerance_description: str) -> None:
     """Write a new ensemble file with no samples yet."""
-    m = problem.n_contacts
+    m, c = problem.n_contacts, per_contact(problem)
+    columns = COLUMNS[c]
     with atomic_h5(path, {"file_kind": KIND}) as f:
         f.attrs.update({
             "sampler": sampler, **provenance(problem),
@@ -120,8 +124,7 @@ def create(path, problem: StaticsProblem, sampler: str, params: dict, setup: dic
             "params": json.dumps(params, sort_keys=True),
             "force_scale": problem.force_scale,
             "units": "forces in F0 (the packing's force unit); lengths in R",
-            "conventions": "samples[k, j] = (fn, ft) of unknown contact j (packing contact "
-                           "problem/contacts[j]); force fn*n + ft*t on body b, t = (-ny, nx)",
+            "conventions": CONVENTIONS[c],
             "tolerance_description": tolerance_description, "diagnostics": "{}"})
         g = f.create_group("problem")
         g.attrs["description"] = "the statics problem the samples solve " \
@@ -129,12 +132,12 @@ def create(path, problem: StaticsProblem, sampler: str, params: dict, setup: dic
         write_dataset(g, "contacts", problem.contacts, "1", "packing contact index per unknown")
         write_dataset(g, "disks", problem.disks, "1", "packing disk index per interior disk")
         write_dataset(g, "mu", problem.mu, "1", "Coulomb coefficient per unknown contact")
-        write_dataset(g, "x_jammed", problem.x_jammed.reshape(m, 2), "F0",
-                      "jammed (packing) forces of the unknown contacts", columns=["fn", "ft"])
-        ds = f.create_dataset("samples", shape=(0, m, 2), maxshape=(None, m, 2), dtype="f8",
-                              chunks=(max(1, min(64, 65536 // max(1, 2 * m))), m, 2))
+        write_dataset(g, "x_jammed", problem.x_jammed.reshape(m, c), "F0",
+                      "jammed (packing) forces of the unknown contacts", columns=columns)
+        ds = f.create_dataset("samples", shape=(0, m, c), maxshape=(None, m, c), dtype="f8",
+                              chunks=(max(1, min(64, 65536 // max(1, c * m))), m, c))
         ds.attrs.update({"units": "F0", "description": "sampled admissible force networks",
-                         "columns": ["fn", "ft"]})
+                         "columns": columns})
         for name, dt, desc in (("sample_chain", "i8", "chain index of each sample"),
                                ("sample_violation", "f8",
                                 "max violation of equilibrium/Coulomb relative to <Fn>"),
@@ -148,7 +151,7 @@ def create(path, problem: StaticsProblem, sampler: str, params: dict, setup: dic
 
 def append(path, X, chains, violations, checkpoint: dict, checkpoint_attrs: dict,
            diagnostics_json: str | None = None) -> int:
-    """Append samples X (k, 2m) and replace the checkpoint, atomically. Returns total count."""
+    """Append samples X (k, c m) and replace the checkpoint, atomically. Returns total count."""
     X = np.asarray(X, float)
     with atomic_replace_copy(path) as f:
         ds = f["samples"]
@@ -156,7 +159,7 @@ def append(path, X, chains, violations, checkpoint: dict, checkpoint_attrs: dict
         k = X.shape[0]
         if k:
             ds.resize(k0 + k, axis=0)
-            ds[k0:] = X.reshape(k, -1, 2)
+            ds[k0:] = X.reshape(k, -1, ds.shape[2])
             for name, vals in (("sample_chain", chains), ("sample_violation", violations),
                                ("sample_checksum", sample_checksums(X))):
                 d = f[name]
@@ -167,6 +170,30 @@ def append(path, X, chains, violations, checkpoint: dict, checkpoint_attrs: dict
         if diagnostics_json is not None:
             f.attrs["diagnostics"] = diagnostics_json
         return k0 + k
+
+
+COLUMNS = {2: ["fn", "ft"], 3: ["fn", "f1", "f2"]}     # the components per contact
+CONVENTIONS = {
+    2: "samples[k, j] = (fn, ft) of unknown contact j (packing contact problem/contacts[j]); "
+       "force fn*n + ft*t on body b, t = (-ny, nx)",
+    3: "samples[k, j] = (fn, f1, f2) of unknown contact j (packing contact "
+       "problem/contacts[j]); force fn*n + f1*t1 + f2*t2 on body b, (n, t1, t2) the "
+       "contact's frame (forcespace.model.sphere_problem.tangent_frame)"}
+
+
+def per_contact(problem) -> int:
+    """Components per unknown contact of a problem's samples: 2 (disks), 3 (spheres)."""
+    return 3 if getattr(problem, "dim", 2) == 3 else 2
+
+
+def _components(f, path) -> int:
+    """The components per contact a file records (its samples' last axis: 2 or 3)."""
+    ds = f["samples"]
+    c = int(ds.shape[2]) if ds.ndim == 3 else -1
+    if c not in COLUMNS:
+        raise InputError(path, "samples", "must be (k, m, 2) (disks: fn, ft) or (k, m, 3) "
+                         "(spheres: fn, f1, f2)", got=ds.shape)
+    return c
 
 
 def _attrs(obj) -> dict:
@@ -181,8 +208,8 @@ def read_file(path, samples: bool = True) -> EnsembleFile:
     with open_h5(path, KIND) as f:
         try:
             g = f["problem"]
-            m = g["contacts"].shape[0]
-            X = f["samples"][()].reshape(-1, 2 * m) if samples else np.empty((0, 2 * m))
+            m, c = g["contacts"].shape[0], _components(f, path)
+            X = f["samples"][()].reshape(-1, c * m) if samples else np.empty((0, c * m))
             attrs = _attrs(f)
             ens = Ensemble(
                 sampler=str(attrs["sampler"]), samples=X,
@@ -190,7 +217,8 @@ def read_file(path, samples: bool = True) -> EnsembleFile:
                 violations=f["sample_violation"][()] if samples else np.empty(0),
                 contacts=g["contacts"][()], disks=g["disks"][()], mu=g["mu"][()],
                 x_jammed=g["x_jammed"][()].reshape(-1), force_scale=float(attrs["force_scale"]),
-                params=json.loads(attrs.get("params", "{}")), attrs=attrs, path=str(path))
+                params=json.loads(attrs.get("params", "{}")), attrs=attrs, path=str(path),
+                per_contact=c)
             if "sample_checksum" not in f:     # without it an edited sample would pass
                 raise InputError(path, "sample_checksum", "missing: every ensemble file "
                                  "keeps one checksum per sample, so an edited sample is "
@@ -216,7 +244,7 @@ def _check(ens: Ensemble, checksums) -> Ensemble:
     for name, arr, shape in (("sample_chain", ens.chains, (k,)),
                              ("sample_violation", ens.violations, (k,)),
                              ("problem/mu", ens.mu, (m,)),
-                             ("problem/x_jammed", ens.x_jammed, (2 * m,))):
+                             ("problem/x_jammed", ens.x_jammed, (ens.per_contact * m,))):
         if arr.shape != shape:
             raise InputError(ens.path, name, f"must have shape {shape}", got=arr.shape)
     if not np.all(np.isfinite(ens.samples)):

@@ -1,7 +1,9 @@
 """Ensemble: samples of S of one statics problem, the one result type of every sampler.
 
 Samples are in problem column order (:mod:`forcespace.model.problem`): ``samples[k, 2j]``
-is fn and ``samples[k, 2j+1]`` ft of unknown contact j [F0]. The samplers
+is fn and ``samples[k, 2j+1]`` ft of unknown contact j [F0] (disks); for spheres
+(``per_contact`` = 3, :mod:`forcespace.model.sphere_problem`) ``samples[k, 3j:3j+3]`` are
+fn, f1, f2 in the contact's frame. The samplers
 (:mod:`forcespace.sampling`) make it and compute its convergence diagnostics (in memory,
 and for one read back: :func:`forcespace.sampling.diagnostics.read_ensemble`);
 :mod:`forcespace.io.ensemble_file` writes and reads its arrays.
@@ -21,10 +23,10 @@ from ..measures import contact_fluctuations, distance_from_centre, eta
 class Ensemble:
     """Samples of S and where they come from.
 
-    samples (k, 2m) [F0]; chains (k,) the chain that produced each sample;
+    samples (k, c m) [F0] (c = ``per_contact``: 2 disks, fn ft; 3 spheres, fn f1 f2); chains (k,) the chain that produced each sample;
     violations (k,) the largest violation of S of each sample, / <Fn>; contacts (m,)
     packing contact index of each unknown contact; disks (n,) packing index of each
-    interior disk; mu (m,) Coulomb coefficients; x_jammed (2m,) the jammed network
+    interior disk; mu (m,) Coulomb coefficients; x_jammed (c m,) the jammed network
     [F0]; force_scale <Fn> [F0]; sampler ("hit-and-run", "billiard", "relax"); params (the
     sampler's parameters); attrs (provenance: packing_file, scene_name, scene_text,
     problem_kind, slice_height, mu_override, code_version, ...); diagnostics
@@ -49,6 +51,7 @@ class Ensemble:
     status: int = 0
     message: str = ""
     path: str | None = None
+    per_contact: int = 2
 
     @property
     def n_samples(self) -> int:
@@ -61,13 +64,14 @@ class Ensemble:
 
     @property
     def forces(self) -> np.ndarray:
-        """Sampled forces (k, m, 2): fn, ft of each unknown contact [F0]."""
-        return self.samples.reshape(self.n_samples, -1, 2)
+        """Sampled forces (k, m, c): fn, ft (spheres fn, f1, f2) of each unknown contact
+        [F0]."""
+        return self.samples.reshape(self.n_samples, -1, self.per_contact)
 
     @property
     def eta(self) -> float:
         """The paper's force ambiguity of the samples (:func:`forcespace.measures.eta`)."""
-        return eta(self.samples)
+        return eta(self.samples, self.per_contact)
 
     @property
     def rms_spread(self) -> float:
@@ -118,7 +122,7 @@ class Ensemble:
         "jammed" (b,), "unit", "mean_f_ensemble", "mean_f_jammed"}; default bins 0.1 wide
         from 0 to past the largest force."""
         from ..measures import force_pdf
-        fn, fj = self.forces[:, :, 0], self.x_jammed[0::2]
+        fn, fj = self.forces[:, :, 0], self.x_jammed[0::self.per_contact]
         if edges is None:
             top = max(float(fn.max(initial=0.0)), float(fj.max(initial=0.0))) / self.force_scale
             edges = np.arange(0.0, np.floor(top / 0.1) * 0.1 + 0.2, 0.1)
@@ -133,7 +137,7 @@ class Ensemble:
         """eta with its standard error and ``level`` interval from the chains
         (:func:`forcespace.measures.eta_interval`: batch jackknife)."""
         from ..measures import eta_interval
-        return eta_interval(self.samples, self.chains, batches, level)
+        return eta_interval(self.samples, self.chains, batches, level, self.per_contact)
 
     def network_measures(self, packing, problem) -> dict:
         """Stress and fabric tensors of the jammed network and over the samples, on the
@@ -169,11 +173,13 @@ class Ensemble:
         ``contacts`` exist and carry the jammed forces ``x_jammed`` (another packing's
         ensemble drew its samples onto the wrong contacts)."""
         k = self.contacts
+        # spheres: fn (packing ft is a 3-vector, the samples' f1, f2 are in each frame)
+        forces = (packing.fn,) if self.per_contact == 3 else (packing.fn, packing.ft)
         same = packing.n_contacts > int(k.max(initial=-1)) and packing.n_disks > \
             int(self.disks.max(initial=-1)) and all(
-                np.allclose(np.asarray(f, float)[k], self.x_jammed[c::2], rtol=1e-9,
-                            atol=1e-12 * self.force_scale) for c, f in enumerate(
-                                (packing.fn, packing.ft)))
+                np.allclose(np.asarray(f, float)[k], self.x_jammed[c::self.per_contact],
+                            rtol=1e-9, atol=1e-12 * self.force_scale)
+                for c, f in enumerate(forces))
         if not same:
             raise InputError(who, "packing", "must be the packing the ensemble was sampled "
                              f"from ({self.attrs.get('packing_file') or 'see its attrs'}): "

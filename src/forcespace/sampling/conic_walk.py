@@ -1,136 +1,328 @@
 """Hit-and-run on S of spheres: a convex set with curved faces (the Coulomb cones).
 
 S in its affine hull: x = xc + N y (:func:`forcespace.space.conic.analyze_conic`'s hull and
-certified centre). A chain at x draws a direction u uniform on the unit sphere of the
-hull's coordinates, v = N u, and moves to a point uniform on the chord {x + t v} in S.
-The chord is exact: per frictional contact whose cone S enters fully, with p = x_j and
-q = v_j (fn, f1, f2), ``mu (p_n + t q_n) >= |p_t + t q_t|`` is the quadratic
-``Q(t) = a t^2 + b t + c >= 0`` (a = mu^2 q_n^2 - |q_t|^2, b = 2 (mu^2 p_n q_n - p_t.q_t),
-c = mu^2 p_n^2 - |p_t|^2 >= 0) on the nappe ``p_n + t q_n >= 0``: the interval of t
-about 0 where both hold (:func:`cone_chords`). Frictionless contacts and contacts on a ray
-of their cone (their equalities hold in the hull) need fn >= 0 only; contacts at the
-apex do not move. Hit-and-run with uniform directions and uniform points on the chord
-has the uniform distribution on S as its stationary law (Smith 1984).
+certified centre), rounded (:func:`pyramid_rounding`) to x = x_centre + T w; a chain moves
+w along a direction (a random axis of w, "coordinate", or uniform on its unit sphere,
+"hypersphere") to a point uniform on the chord through w in S. The chord is exact: per
+frictional contact whose cone S enters fully, with p = x_j and q = (T u)_j (fn, f1, f2),
+``mu (p_n + t q_n) >= |p_t + t q_t|`` is the quadratic ``Q(t) = a t^2 + b t + c >= 0``
+(a = mu^2 q_n^2 - |q_t|^2, b = 2 (mu^2 p_n q_n - p_t.q_t), c = mu^2 p_n^2 - |p_t|^2 >= 0)
+on the nappe ``p_n + t q_n >= 0``: the interval of t about 0 where both hold
+(:func:`cone_interval`). Frictionless contacts and contacts on a ray of their cone (their
+equalities hold in the hull) need fn >= 0 only; contacts at the apex, and contacts whose
+forces do not vary in S, do not move. Hit-and-run with these directions and uniform points
+on the chord leaves the uniform distribution on S invariant (Smith 1984), and a linear map
+keeps uniformity.
 
-Units: x [F0]; t in F0 per unit of the direction (|u| = 1 in the hull's coordinates,
-which are those of x: N is orthonormal).
+Rounding fit to the conic set: each cone replaced by its circumscribed k-sided pyramid
+(k = ``PYRAMID_SIDES``, the regular k-gon around the circle |f_t| = mu fn, one side
+touching it where the centre's f_t points: tight where S presses against its cone) gives a
+polytope that holds S and lies within the cones of mu / cos(pi / k); its inscribed
+ellipsoid (the exact MVE, or John's by Lewis weights above ``config.MVE_MAX_ROWS`` rows:
+:func:`forcespace.sampling.rounding.mve_rounding`) is the rounding (any affine map keeps
+uniformity; the fit only sets the speed). The chains start at the analysis' certified
+centre (inside S; the ellipsoid's centre may lie just outside it).
+
+The walk runs through the one sampling driver (:func:`forcespace.sampling.driver.run_walk`,
+via :class:`~forcespace.sampling.hit_and_run.HitAndRun`): files, resume, diagnostics,
+progress as for disks. The chain state is w and the xoshiro256** state, as for disks; x is
+recomputed from w at the start of every call of the kernel (and every
+``CONE_REFRESH`` steps), so a resumed run continues bit for bit.
+
+Units: x [F0]; t in F0 per unit of the direction; y, w as in :mod:`forcespace.sampling.frame`.
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
-from ..errors import InputError
-from ..model.sphere_problem import SphereStaticsProblem
+from .. import config
+from ..errors import InputError, NumericalError
+from ..kernels import kernel
+from ..linalg import onto_affine_hull
+from ..progress import progress as progress_bar
 from ..space import conic
-from ..streams import chain_generators
+from ..space.lp import inner_ball
+from ..streams import chain_states
+from .frame import Frame, FrameWalk, sampled_analysis
+from .rounding import mve_rounding
+from .xoshiro import normal, uniform
+
+PYRAMID_SIDES = 16     # sides of the circumscribed pyramids the rounding is fit to
+CONE_REFRESH = 4096    # [steps] x = xc + T w recomputed exactly (incremental x drifts ~eps sqrt n)
 
 
-def cone_chords(P, Q, mu):
-    """(lo, hi) (k,): the interval of t about 0 where p + t q stays in the cone
-    |f_t| <= mu fn, for k cones at once; P, Q (k, 3) rows (fn, f1, f2) of the points
-    (inside their cones) and of the direction; mu (k,) > 0. Unbounded sides are +-inf."""
-    P, Q, mu = np.asarray(P, float), np.asarray(Q, float), np.asarray(mu, float)
+# ----------------------------------------------------------------------------
+# kernels
+# ----------------------------------------------------------------------------
+@kernel
+def cone_interval(pn, p1, p2, qn, q1, q2, mu):
+    """(lo, hi): the interval of t about 0 where p + t q stays in the cone
+    ``|(f1, f2)| <= mu fn`` (p inside it, mu > 0); unbounded sides are +-inf. Round-off
+    (p a hair outside, or 0 between a convex Q's roots) gives (0, 0): stay put."""
     m2 = mu * mu
-    a = m2 * Q[:, 0] ** 2 - (Q[:, 1:] ** 2).sum(1)
-    b = 2.0 * (m2 * P[:, 0] * Q[:, 0] - (P[:, 1:] * Q[:, 1:]).sum(1))
-    c = np.maximum(m2 * P[:, 0] ** 2 - (P[:, 1:] ** 2).sum(1), 0.0)   # inside: c >= 0
-    lo, hi = half_line(P[:, 0], Q[:, 0])                                # the nappe fn >= 0
-    disc = b * b - 4 * a * c
-    with np.errstate(divide="ignore", invalid="ignore"):
-        root = np.sqrt(np.maximum(disc, 0.0))
-        # roots by the stable pair: q = -(b + sign(b) root) / 2, r1 = q / a, r2 = c / q
-        qq = -0.5 * (b + np.where(b >= 0, 1.0, -1.0) * root)
-        r1, r2 = qq / a, c / qq
-    r_lo, r_hi = np.minimum(r1, r2), np.maximum(r1, r2)
-    concave = a < 0                  # Q >= 0 between its roots
-    lo = np.where(concave, np.maximum(lo, r_lo), lo)
-    hi = np.where(concave, np.minimum(hi, r_hi), hi)
-    convex = a > 0                   # Q >= 0 outside its roots: the side 0 is on
-    above = convex & (disc >= 0) & (r_lo >= 0)
-    below = convex & (disc >= 0) & (r_hi <= 0)
-    hi = np.where(above, np.minimum(hi, r_lo), hi)
-    lo = np.where(below, np.maximum(lo, r_hi), lo)
-    # round-off only (x a hair outside, or 0 between a convex Q's roots): stay put
-    stuck = (concave & (disc < 0)) | (convex & (disc >= 0) & ~above & ~below)
-    lo, hi = np.where(stuck, 0.0, lo), np.where(stuck, 0.0, hi)
-    flat = a == 0                    # Q linear: b t + c >= 0
-    lo = np.where(flat & (b > 0), np.maximum(lo, -c / np.where(b > 0, b, 1.0)), lo)
-    hi = np.where(flat & (b < 0), np.minimum(hi, -c / np.where(b < 0, b, 1.0)), hi)
-    return np.minimum(lo, 0.0), np.maximum(hi, 0.0)
+    a = m2 * qn * qn - q1 * q1 - q2 * q2
+    b = 2.0 * (m2 * pn * qn - p1 * q1 - p2 * q2)
+    c = max(m2 * pn * pn - p1 * p1 - p2 * p2, 0.0)
+    lo, hi = -np.inf, np.inf
+    pp = max(pn, 0.0)                       # the nappe fn >= 0
+    if qn > 0.0:
+        lo = -pp / qn
+    elif qn < 0.0:
+        hi = -pp / qn
+    if a == 0.0:                            # Q linear: b t + c >= 0
+        if b > 0.0:
+            lo = max(lo, -c / b)
+        elif b < 0.0:
+            hi = min(hi, -c / b)
+        return min(lo, 0.0), max(hi, 0.0)
+    disc = b * b - 4.0 * a * c
+    if disc < 0.0:
+        if a < 0.0:
+            return 0.0, 0.0
+        return min(lo, 0.0), max(hi, 0.0)  # convex Q without roots: Q > 0 everywhere
+    root = np.sqrt(disc)
+    qq = -0.5 * (b + root) if b >= 0.0 else -0.5 * (b - root)   # the stable pair
+    r1 = qq / a
+    r2 = c / qq if qq != 0.0 else 0.0
+    r_lo, r_hi = min(r1, r2), max(r1, r2)
+    if a < 0.0:                             # Q >= 0 between its roots
+        lo, hi = max(lo, r_lo), min(hi, r_hi)
+    elif r_lo >= 0.0:                       # convex: the side 0 is on
+        hi = min(hi, r_lo)
+    elif r_hi <= 0.0:
+        lo = max(lo, r_hi)
+    else:
+        return 0.0, 0.0
+    return min(lo, 0.0), max(hi, 0.0)
 
 
-def half_line(p, q):
-    """(lo, hi) (k,): the t with p + t q >= 0, for p >= 0 (clipped at 0)."""
-    p, q = np.maximum(np.asarray(p, float), 0.0), np.asarray(q, float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lo = np.where(q > 0, -p / q, -np.inf)
-        hi = np.where(q < 0, -p / q, np.inf)
+@kernel
+def chord(x, q, cone, mu, line):
+    """(lo, hi): the chord {x + t q} in S: every cone ``cone`` (k,) (contact j: columns
+    3j..3j+2 of x, q) with its mu (k,), every fn >= 0 of ``line`` (l,)."""
+    lo, hi = -np.inf, np.inf
+    for k in range(cone.size):
+        j = 3 * cone[k]
+        a, b = cone_interval(x[j], x[j + 1], x[j + 2], q[j], q[j + 1], q[j + 2], mu[k])
+        lo, hi = max(lo, a), min(hi, b)
+    for k in range(line.size):
+        j = 3 * line[k]
+        pn, qn = max(x[j], 0.0), q[j]
+        if qn > 1e-300:
+            lo = max(lo, -pn / qn)
+        elif qn < -1e-300:
+            hi = min(hi, -pn / qn)
     return lo, hi
 
 
-class ConicHitAndRun:
-    """Uniform samples of S of a sphere problem by hit-and-run with exact chords.
+@kernel
+def conic_har_steps(T, xc, cone, mu, line, w, state, n_steps, coordinate):
+    """Run ``n_steps`` hit-and-run steps on S from w (d,) in place; returns the number of
+    degenerate chords (skipped). T (3m, d) Fortran order, xc (3m,) [F0]: x = xc + T w;
+    cone (k,), mu (k,), line (l,): :func:`chord`. state (4,) uint64, advanced in place."""
+    n3, d = T.shape
+    x = xc + T @ w
+    u = np.zeros(d)
+    Tu = np.zeros(n3)
+    bad = 0
+    for step in range(n_steps):
+        if step % CONE_REFRESH == 0 and step > 0:
+            x = xc + T @ w
+        c = 0
+        if coordinate:
+            c = min(int(uniform(state) * d), d - 1)
+            q = T[:, c]                     # a column: contiguous in Fortran order
+        else:
+            nrm = 0.0
+            for i in range(d):
+                u[i] = normal(state)
+                nrm += u[i] * u[i]
+            nrm = np.sqrt(nrm)
+            for i in range(d):
+                u[i] /= nrm
+            for r in range(n3):
+                acc = 0.0
+                for i in range(d):
+                    acc += T[r, i] * u[i]
+                Tu[r] = acc
+            q = Tu
+        lo, hi = chord(x, q, cone, mu, line)
+        r = uniform(state)
+        if not (np.isfinite(lo) and np.isfinite(hi)) or hi < lo:
+            bad += 1
+            continue
+        t = lo + r * (hi - lo)
+        if coordinate:
+            w[c] += t
+        else:
+            for i in range(d):
+                w[i] += t * u[i]
+        for i in range(n3):
+            x[i] += t * q[i]
+    return bad
 
-    ``ConicHitAndRun(n, seed=0, chains=4, thin=None, burn_in=None).compute(problem)``:
-    ``samples`` (n, 3m) [F0] (sample i drawn by chain i % chains), ``chain`` (n,), the
-    analysis (``analysis``: a ForceSpace of the problem). Every chain starts at the
-    certified centre; ``thin`` steps per sample (default d, the dimension of S) and
-    ``burn_in`` steps before the first (default 10 d). In memory only: the sampling
-    driver's files, rounding and diagnostics are the disks' so far."""
 
-    def __init__(self, n: int, seed: int = 0, chains: int = 4, thin: int | None = None,
-                 burn_in: int | None = None):
-        if not (isinstance(n, (int, np.integer)) and 1 <= n <= 10 ** 7):
-            raise InputError("ConicHitAndRun", "n", "must be an integer in [1, 1e7]", got=n)
-        self.n, self.seed, self.chains = int(n), int(seed), int(chains)
-        self.thin, self.burn_in = thin, burn_in
-
-    def compute(self, problem: SphereStaticsProblem, analysis=None) -> "ConicHitAndRun":
-        from ..space.force_space import ForceSpace
-        if not isinstance(problem, SphereStaticsProblem):
-            raise InputError("ConicHitAndRun", "problem", "must be a SphereStaticsProblem "
-                             "(disks: HitAndRun)", got=type(problem).__name__)
-        S = analysis if analysis is not None else ForceSpace().compute(problem)
-        if not (S.success and S.feasible and S.bounded):
-            raise InputError(problem.source or "problem", "S", "must be non-empty and "
-                             "bounded to be sampled", got=f"feasible={S.feasible}, "
-                             f"bounded={S.bounded}")
-        self.analysis = S
-        N, d = S.affine_basis, S.dim
-        thin = max(d, 1) if self.thin is None else int(self.thin)
-        burn = 10 * max(d, 1) if self.burn_in is None else int(self.burn_in)
-        walk = ChordWalk(problem, S.faces, S.centre, N)
-        rngs = chain_generators(self.seed, self.chains)
-        xs = [S.centre.copy() for _ in range(self.chains)]
-        out, chain = np.empty((self.n, problem.n_columns)), np.arange(self.n) % self.chains
-        for c in range(self.chains):
-            for _ in range(burn if d else 0):
-                xs[c] = walk.step(xs[c], rngs[c])
-        for i in range(self.n):
-            c = chain[i]
-            for _ in range(thin if d else 0):
-                xs[c] = walk.step(xs[c], rngs[c])
-            out[i] = xs[c]
-        self.samples, self.chain = out, chain
-        return self
+def cone_chords(P, Q, mu):
+    """(lo, hi) (k,): :func:`cone_interval` of k cones at once; P, Q (k, 3) rows (fn, f1,
+    f2) of the points (inside their cones) and of the direction; mu (k,) > 0."""
+    P, Q = np.asarray(P, float).reshape(-1, 3), np.asarray(Q, float).reshape(-1, 3)
+    out = np.array([cone_interval(*p, *q, float(m)) for p, q, m in zip(P, Q, np.ravel(mu))])
+    return out[:, 0], out[:, 1]
 
 
-class ChordWalk:
-    """One hit-and-run step on S: ``step(x, rng)`` -> the next point (3m,) [F0]."""
+# ----------------------------------------------------------------------------
+# the frame and its rounding
+# ----------------------------------------------------------------------------
+def conic_frame(problem, analysis=None):
+    """(Frame, cone (k,), mu (k,), line (l,)): S of a sphere problem in its affine hull
+    (:class:`~forcespace.sampling.frame.Frame`; its rows H0 y <= s0 are the fn >= 0 of the
+    ``line`` contacts: frictionless, or on a ray of their cone), the contacts whose cone S
+    enters fully (``cone``, with their mu) and which vary on the hull."""
+    an = sampled_analysis(problem, analysis)
+    N = an.affine_basis
+    xc = onto_affine_hull(an.centre, an.affine_point, N)
+    m = problem.n_contacts
+    moving = np.linalg.norm(N.reshape(m, 3, -1), axis=(1, 2)) > config.FLAT_ROW
+    full = an.faces.kind == conic.FULL
+    cone = np.flatnonzero(full & (problem.mu > 0) & moving)
+    line = np.flatnonzero(~(full & (problem.mu > 0)) & (an.faces.kind != conic.APEX) & moving)
+    H0, s0 = -N[3 * line], xc[3 * line].copy()
+    keep = np.linalg.norm(H0, axis=1) > config.FLAT_ROW
+    line, H0, s0 = line[keep], H0[keep], s0[keep]
+    return Frame(xc, N, H0, s0, line, an, 0.0), cone, problem.mu[cone].astype(float), line
 
-    def __init__(self, problem: SphereStaticsProblem, faces, x0, N):
-        self.N = N
-        cone = (faces.kind == conic.FULL) & (problem.mu > 0)
-        self.cone = np.flatnonzero(cone)
-        self.line = np.flatnonzero(~cone & (faces.kind != conic.APEX))
-        self.mu = problem.mu[self.cone]
 
-    def step(self, x, rng):
-        u = rng.normal(size=self.N.shape[1])
-        v = self.N @ (u / np.linalg.norm(u))
-        X, V = x.reshape(-1, 3), v.reshape(-1, 3)
-        lo, hi = cone_chords(X[self.cone], V[self.cone], self.mu)
-        l2, h2 = half_line(X[self.line, 0], V[self.line, 0])
-        t_lo = max(lo.max(initial=-np.inf), l2.max(initial=-np.inf))
-        t_hi = min(hi.min(initial=np.inf), h2.min(initial=np.inf))
-        return x + rng.uniform(t_lo, t_hi) * v
+def pyramid_rounding(fr: Frame, cone, problem, progress: bool = False, method=None):
+    """(y0 (d,), L (d, d), info) in units of <Fn>: the inscribed ellipsoid of the polytope
+    {y : the k-sided pyramids circumscribed about the ``cone`` contacts' cones, fn >= 0 of
+    the frame's rows} (it holds S; module docstring), started from the frame's centre
+    y = 0. If that polytope is unbounded or the rounding fails, the frame is not rounded
+    (L = identity; info["method"] = "none", with the reason)."""
+    k, scale, d = PYRAMID_SIDES, problem.force_scale, fr.N.shape[1]
+    xc = fr.xc.reshape(-1, 3)[cone]
+    a = (np.arctan2(xc[:, 2], xc[:, 1])[:, None] + 2 * np.pi * np.arange(k) / k).ravel()
+    rows = np.column_stack([-np.repeat(problem.mu[cone], k), np.cos(a), np.sin(a)])
+    cols = 3 * np.repeat(cone, k)[:, None] + np.arange(3)
+    H = np.vstack([np.einsum("rc,rcd->rd", rows, fr.N[cols]), fr.H0])
+    s = np.concatenate([-(rows * fr.xc[cols]).sum(1), fr.s0])
+    live = np.linalg.norm(H, axis=1) > config.FLAT_ROW
+    H, s = H[live], s[live]
+    method = method or ("mve" if H.shape[0] <= config.MVE_MAX_ROWS else "john")
+    try:
+        if not np.all(s > 0):
+            raise InputError("rounding", "y0", "the centre is on a pyramid's face")
+        y0, L, info = mve_rounding(H * scale, s, np.zeros(d), progress=progress,
+                                   method=method)
+    except (InputError, NumericalError, np.linalg.LinAlgError) as exc:
+        return np.zeros(d), np.eye(d), {"method": "none", "pyramid_sides": k,
+                                        "reason": str(exc)}
+    return y0, L, dict(info, pyramid_sides=k, n_rows=int(H.shape[0]))
+
+
+SETUP_DESCRIPTION = {
+    "x_centre": ("F0", "centre of the rounding ellipsoid (origin of w; may lie just "
+                 "outside S: the chains start at w_start)"),
+    "w_start": ("1", "the chains' start in w: the analysis' certified centre of S"),
+    "T": ("F0", "x = x_centre + T w: affine frame x frozen rounding (params: 'rounding')"),
+    "H": ("1", "fn >= 0 of the line contacts in w: H w <= s0"),
+    "s0": ("F0", "slack of those rows at the centre"),
+    "free_rows": ("1", "line contacts (frictionless or on a ray of their cone): fn >= 0"),
+    "cone_contacts": ("1", "unknown contacts whose cone S enters fully (the walk's cones)"),
+    "cone_mu": ("1", "their Coulomb coefficients"),
+    "mve_axis_ratio": ("1", "axis ratio of the pyramids' inscribed ellipsoid per pass")}
+
+
+def conic_default_params(d: int, **kw) -> dict:
+    """hit-and-run's defaults (4 chains, thin max(50, d^2), burn-in max(500, 10 d^2),
+    coordinate directions) with the pyramids' rounding."""
+    d = max(d, 1)
+    p = {"seed": 0, "chains": 4, "thin": max(50, d * d), "burn_in": max(500, 10 * d * d),
+         "direction": "coordinate", "rounding": f"pyramids{PYRAMID_SIDES}"}
+    p.update({k: v for k, v in kw.items() if v is not None})
+    return p
+
+
+class ConicHitAndRunWalk(FrameWalk):
+    """Hit-and-run on S of spheres in the rounded frame (the template
+    :class:`~forcespace.sampling.frame.FrameWalk`): ``thin`` steps of chain i % chains
+    between its samples."""
+
+    sampler = "hit-and-run"
+    SETUP_DESCRIPTION = SETUP_DESCRIPTION
+    pending_burn_in = False
+    rounding_L = (np.zeros((0, 0)), np.zeros(0))    # (L, y0) of the frame's rounding
+
+    def make_frame(self, problem, analysis) -> Frame:
+        fr, self.cone, self.cone_mu, self.line = conic_frame(problem, analysis)
+        return fr
+
+    def default_params(self, options: dict) -> dict:
+        return conic_default_params(self.d, **options)
+
+    def round(self):
+        y0, L, info = pyramid_rounding(self.frame, self.cone, self.problem, self.progress)
+        self.rounding_L = (L, y0)
+        return y0, L, info
+
+    def start_chains(self, H, s):
+        p = self.params
+        self.states = chain_states(p["seed"], p["chains"])
+        L, y0 = self.rounding_L
+        self.w_start = -np.linalg.solve(L, y0) if self.d else np.zeros(0)
+        self.W = np.tile(self.w_start, (p["chains"], 1))
+        self.H, self.s0 = H, s
+        self.pending_burn_in = bool(self.d and p["burn_in"])    # once T is set (_start)
+        return H, s
+
+    def _start(self, xc, T) -> None:
+        super()._start(xc, T)
+        self.Tf = np.asfortranarray(T)
+        if self.pending_burn_in:
+            self.pending_burn_in = False
+            self._burn_in()
+
+    def _burn_in(self) -> None:
+        t1, c1 = time.perf_counter(), time.process_time()
+        steps, W = self.params["burn_in"], self.W
+        with progress_bar(total=W.shape[0] * steps, desc=f"burn-in ({W.shape[0]} chains)",
+                          unit="step", disable=not self.progress) as bar:
+            for c in range(W.shape[0]):
+                done = 0
+                while done < steps:
+                    k = min(CONE_REFRESH * 64, steps - done)
+                    self._steps(c, k)
+                    done += k
+                    bar.update(k)
+        self.ok = tuple(a.copy() for a in self.chain_arrays())
+        self.times["burn_in_s"] = time.perf_counter() - t1
+        self.cpu["burn_in_s"] = time.process_time() - c1
+
+    def _steps(self, c: int, n: int) -> int:
+        return conic_har_steps(self.Tf, self.xc, self.cone, self.cone_mu, self.line,
+                               self.W[c], self.states[c], n,
+                               self.params["direction"] == "coordinate")
+
+    def setup_extra(self) -> dict:
+        return {"cone_contacts": self.cone, "cone_mu": self.cone_mu, "w_start": self.w_start,
+                "mve_axis_ratio": np.asarray(self.rounding_info.get("axis_ratio", []), float)}
+
+    def resume_chains(self, setup, checkpoint, state) -> None:
+        self.cone = np.asarray(setup["cone_contacts"], np.int64)
+        self.cone_mu = np.asarray(setup["cone_mu"], float)
+        self.line = np.asarray(setup["free_rows"], np.int64)
+        self.H, self.s0 = setup["H"], setup["s0"]
+        self.W, self.states = state["w"], state["rng"]
+
+    def chain_arrays(self) -> tuple:
+        return self.W, self.states
+
+    def advance(self, c: int) -> None:
+        thin = self.params["thin"]
+        if self._steps(c, thin) > thin // 2:
+            raise NumericalError("hit-and-run: most chords degenerate; S is "
+                                 "(numerically) flat in a direction the analysis kept")
+
+    def state_attrs(self) -> dict:
+        return {"steps_per_sample": self.params["thin"]}

@@ -108,11 +108,13 @@ def converged(summary: dict, target_ess: float | None = None,
                 and summary["max_rhat"] <= rhat_max)
 
 
-def diagnostics(samples: np.ndarray, chains: np.ndarray, seed: int = 0) -> dict:
+def diagnostics(samples: np.ndarray, chains: np.ndarray, seed: int = 0,
+                per_contact: int = 2) -> dict:
     """The convergence record of an ensemble: n_chains, min_ess, max_rhat, worst, the
     per-statistic table, the R-hat/ESS of |x - mean|^2 and the extremes over the
     projections (``rhat_sqdev``, ``ess_sqdev``, ``rhat_projections_max``,
-    ``ess_projections_min``) and eta per chain. Fewer than 8 samples: n_chains only."""
+    ``ess_projections_min``) and eta per chain (``per_contact`` columns per contact: 2
+    disks, 3 spheres). Fewer than 8 samples: n_chains only."""
     X = np.asarray(samples, float)
     ids = np.unique(chains)
     out = {"n_chains": int(ids.size)}
@@ -129,7 +131,7 @@ def diagnostics(samples: np.ndarray, chains: np.ndarray, seed: int = 0) -> dict:
                ess_sqdev=min(table["sqdev"]["ess_bulk"], table["sqdev"]["ess_tail"]),
                rhat_projections_max=max(rp) if rp else None,
                ess_projections_min=min(ep) if ep else None,
-               eta_per_chain=[float(eta_fn(X[chains == c])) if (chains == c).sum() > 1
+               eta_per_chain=[float(eta_fn(X[chains == c], per_contact)) if (chains == c).sum() > 1
                               else float("nan") for c in ids])
     return out
 
@@ -141,5 +143,6 @@ def read_ensemble(path):
     from ..io.ensemble_file import read_file
 
     ens = read_file(path).ensemble
-    ens.diagnostics = diagnostics(ens.samples, ens.chains, ens.params.get("seed", 0))
+    ens.diagnostics = diagnostics(ens.samples, ens.chains, ens.params.get("seed", 0),
+                                  ens.per_contact)
     return ens

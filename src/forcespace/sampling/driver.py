@@ -40,6 +40,7 @@ from ..io import ensemble_file as ef
 from ..io.jsonfile import dumps
 from ..io.outputs import check_output_file, output_lock
 from ..model.problem import checked_problem
+from ..model.sphere_problem import SphereStaticsProblem
 from ..progress import progress as progress_bar
 from ..result import Computed
 from .diagnostics import by_chain, converged, diagnostics, summarize, tracked_statistics
@@ -287,8 +288,10 @@ def _ensemble(walk, problem, old, sink, status, message, output) -> Ensemble:
                    contacts=problem.contacts, disks=problem.disks, mu=problem.mu,
                    x_jammed=problem.x_jammed, force_scale=problem.force_scale,
                    params=dict(walk.params), attrs=ef.provenance(problem), status=status,
-                   message=message, path=None if output is None else str(output))
-    ens.diagnostics = diagnostics(ens.samples, ens.chains, walk.params.get("seed", 0))
+                   message=message, path=None if output is None else str(output),
+                   per_contact=ef.per_contact(problem))
+    ens.diagnostics = diagnostics(ens.samples, ens.chains, walk.params.get("seed", 0),
+                                  ens.per_contact)
     return ens
 
 
@@ -362,6 +365,7 @@ class FrameSampler(Sampler):
     these, with :meth:`_walk_results` and :meth:`_summary_extra` for the walk's own."""
 
     Walk = None
+    ConicWalk = None     # the walk on S of spheres, if the sampler has one
 
     def __init__(self, n: int, seed: int, max_seconds, checkpoint_every: int,
                  progress: bool, target_ess, **options):
@@ -375,8 +379,10 @@ class FrameSampler(Sampler):
         """Sample S of ``problem`` (in memory, or into the ensemble file ``output``,
         resumed when it continues this run); ``analysis``: its ForceSpace, if computed."""
         t0, c0 = time.perf_counter(), time.process_time()
-        problem = checked_problem(problem, type(self).__name__)
-        walk = self.Walk(problem, self.options, analysis, self.progress)
+        Walk = self.walk_for(problem)
+        problem = problem.check(type(self).__name__) if Walk is self.ConicWalk \
+            else checked_problem(problem, type(self).__name__)
+        walk = Walk(problem, self.options, analysis, self.progress)
         stop = TimedStop(self.n, self.max_seconds, self.target_ess, walk.params["chains"],
                          walk.params["seed"])
         ens = run_walk(walk, problem, stop, output, self.checkpoint_every, self.progress,
@@ -391,6 +397,17 @@ class FrameSampler(Sampler):
             **self._walk_results(walk))
         self._finish(ens.status, ens.message)
         return self
+
+    def walk_for(self, problem):
+        """The walk for ``problem``: ``ConicWalk`` for a sphere problem (S with circular
+        Coulomb cones), ``Walk`` otherwise; InputError if the sampler has no conic walk."""
+        if isinstance(problem, SphereStaticsProblem):
+            if self.ConicWalk is None:
+                raise InputError(type(self).__name__, "problem", "S of spheres (circular "
+                                 "Coulomb cones) is sampled by HitAndRun; this sampler "
+                                 "walks in polytopes only")
+            return self.ConicWalk
+        return self.Walk
 
     def _walk_results(self, walk) -> dict:
         """Results of the walk beyond the frame samplers' own."""

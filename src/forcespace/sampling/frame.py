@@ -58,11 +58,10 @@ class Frame(NamedTuple):
                 self.s0)
 
 
-def frame(problem: StaticsProblem, analysis=None) -> Frame:
-    """The affine frame of S (:class:`Frame`).
-
-    The free rows are the inequalities that are neither implicit equalities nor
-    constant on the affine hull (|G_i N| <= FLAT_ROW)."""
+def sampled_analysis(problem, analysis=None):
+    """The analysis of S a walk starts from (``analysis``, else ForceSpace's, with the
+    centre): NumericalError if it failed, InputError if S is empty, unbounded or lacks a
+    centre."""
     an = analysis if analysis is not None else ForceSpace(ranges=False, centre=True).compute(problem)
     if not an.success:
         raise NumericalError(f"analysis of S failed: {an.message}")
@@ -74,6 +73,15 @@ def frame(problem: StaticsProblem, analysis=None) -> Frame:
                          "refusing to sample")
     if an.centre is None:
         raise NumericalError("no Chebyshev centre computed")
+    return an
+
+
+def frame(problem: StaticsProblem, analysis=None) -> Frame:
+    """The affine frame of S (:class:`Frame`).
+
+    The free rows are the inequalities that are neither implicit equalities nor
+    constant on the affine hull (|G_i N| <= FLAT_ROW)."""
+    an = sampled_analysis(problem, analysis)
     G, _, _ = problem.inequalities()
     free = np.setdiff1d(np.arange(G.shape[0]), an.implicit_rows)
     N = an.affine_basis
@@ -159,7 +167,7 @@ class FrameWalk:
     def __init__(self, problem: StaticsProblem, options: dict, analysis, progress: bool):
         t0, c0 = time.perf_counter(), time.process_time()
         self.problem, self.progress = problem, progress
-        self.frame = frame(problem, analysis)
+        self.frame = self.make_frame(problem, analysis)
         self.free, self.widening = self.frame.free, self.frame.widening
         self.H0 = self.frame.H0
         self.d = self.frame.N.shape[1]
@@ -255,6 +263,10 @@ class FrameWalk:
         return float(self.floor(self.kept).max(initial=0.0))
 
     # ---- what each walk fills ---------------------------------------------------------
+    def make_frame(self, problem, analysis) -> Frame:
+        """The walk's frame of S (polytopes: :func:`frame`)."""
+        return frame(problem, analysis)
+
     def default_params(self, options: dict) -> dict:
         raise NotImplementedError
 

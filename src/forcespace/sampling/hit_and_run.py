@@ -46,6 +46,7 @@ from ..errors import InputError, NumericalError, require_int
 from ..kernels import kernel
 from ..progress import progress as progress_bar
 from ..streams import chain_states
+from .conic_walk import ConicHitAndRunWalk
 from .driver import FrameSampler
 from .frame import FrameWalk
 from .rounding import mve_rounding
@@ -273,10 +274,14 @@ class HitAndRun(FrameSampler):
     the cap; reaching it first is status 1); ``progress`` shows bars on stderr.
     Results: ``ensemble`` (:class:`~forcespace.model.ensemble.Ensemble`, with the
     convergence diagnostics), and the run's ``dim``, ``n_rows``, ``times``,
-    ``frame_equality_floor``.
+    ``frame_equality_floor``. A sphere problem (:mod:`forcespace.model.sphere_problem`)
+    is sampled with exact chords through its cones
+    (:class:`~forcespace.sampling.conic_walk.ConicHitAndRunWalk`; rounding fit to
+    inscribed pyramids).
     """
 
     Walk = HitAndRunFrameWalk
+    ConicWalk = ConicHitAndRunWalk
 
     def __init__(self, n: int = 100, seed: int = 0, chains: int | None = None,
                  thin: int | None = None, burn_in: int | None = None,

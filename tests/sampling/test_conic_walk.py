@@ -1,0 +1,109 @@
+"""Uniform sampling of S of spheres (circular Coulomb cones) through the sampling driver:
+exact chords, uniform marginals on a solid cone (with a planted error the test catches),
+files that resume bit for bit, and the command line on a sphere packing."""
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from cases import conic_problem
+from scipy.stats import kstest
+
+from forcespace.cli import main
+from forcespace.sampling import conic_walk
+from forcespace.sampling.hit_and_run import HitAndRun
+
+MU = 0.5
+
+
+def solid_cone(mu=MU, F=1.0):
+    """S = {(fn1, f1, f2): |f| <= mu fn1, 0 <= fn1 <= F} (a second frictionless contact
+    takes F - fn1): a solid circular cone of height F, uniform law of fn1 with
+    P(fn1 <= s) = (s / F)^3, of |f_t| / (mu fn1) with P(<= q) = q^2."""
+    rows = np.zeros((1, 6))
+    rows[0, [0, 3]] = 1.0
+    return conic_problem(rows, [F], [mu, 0.0])
+
+
+def marginal_pvalues(X):
+    """KS p-values of fn1 against s^3 and of |f_t| / (mu fn1) against q^2."""
+    fn = X[:, 0]
+    q = np.hypot(X[:, 1], X[:, 2]) / (MU * fn)
+    return (kstest(fn, lambda s: np.clip(s, 0, 1) ** 3).pvalue,
+            kstest(q, lambda s: np.clip(s, 0, 1) ** 2).pvalue)
+
+
+@pytest.mark.parametrize("direction", ["coordinate", "hypersphere"])
+def test_hit_and_run_is_uniform_on_a_solid_cone(direction):
+    prob = solid_cone()
+    hr = HitAndRun(1200, seed=3, chains=4, thin=5, direction=direction).compute(prob)
+    X = hr.ensemble.samples
+    assert hr.dim == 3 and hr.ensemble.per_contact == 3
+    assert hr.ensemble.violations.max() <= 1e-9
+    assert min(marginal_pvalues(X)) > 1e-3
+    assert hr.ensemble.diagnostics["max_rhat"] < 1.05
+
+
+def test_the_uniformity_test_catches_a_walk_in_a_narrower_cone(monkeypatch):
+    # planted error: chords through the cone of mu cos(pi/8) (the inscribed octagon's
+    # inradius): every sample still in S, but |f_t| never reaches mu fn
+    real = conic_walk.conic_frame
+
+    def narrower(problem, analysis=None):
+        fr, cone, mu, line = real(problem, analysis)
+        return fr, cone, mu * np.cos(np.pi / 8), line
+    monkeypatch.setattr(conic_walk, "conic_frame", narrower)
+    hr = HitAndRun(1200, seed=3, chains=4, thin=5).compute(solid_cone())
+    assert hr.ensemble.violations.max() <= 1e-9
+    assert marginal_pvalues(hr.ensemble.samples)[1] < 1e-6
+
+
+def test_the_chord_of_a_cone_is_exact():
+    cone_chords = conic_walk.cone_chords
+    # along f1 from the axis point (1, 0, 0): |f1| <= mu = 0.5 -> t in [-0.5, 0.5]
+    lo, hi = cone_chords([[1.0, 0, 0]], [[0.0, 1, 0]], [0.5])
+    np.testing.assert_allclose([lo[0], hi[0]], [-0.5, 0.5])
+    # along the axis: fn >= 0 only below, unbounded above
+    lo, hi = cone_chords([[1.0, 0.2, 0]], [[1.0, 0, 0]], [0.5])
+    assert lo[0] == pytest.approx(-0.6) and hi[0] == np.inf
+    # a random chord's ends lie on the cone's surface
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        p = np.r_[1.0, rng.uniform(-0.3, 0.3, 2)]
+        q = rng.normal(size=3)
+        lo, hi = cone_chords([p], [q], [0.5])
+        for t in (lo[0], hi[0]):
+            if np.isfinite(t):
+                e = p + t * q
+                assert 0.5 * e[0] - np.hypot(e[1], e[2]) == pytest.approx(0, abs=1e-12)
+                assert e[0] >= -1e-12
+
+
+def test_a_sphere_ensemble_file_resumes_bit_for_bit(tmp_path):
+    prob = solid_cone()
+    one, two = tmp_path / "one.h5", tmp_path / "two.h5"
+    straight = HitAndRun(30, seed=5, thin=7, checkpoint_every=4).compute(prob, output=one)
+    HitAndRun(13, seed=5, thin=7, checkpoint_every=4).compute(prob, output=two)
+    resumed = HitAndRun(30, seed=5, thin=7, checkpoint_every=4).compute(prob, output=two)
+    np.testing.assert_array_equal(straight.ensemble.samples, resumed.ensemble.samples)
+    with h5py.File(two) as f:
+        assert f["samples"].shape == (30, 2, 3)
+        assert list(f["samples"].attrs["columns"]) == ["fn", "f1", "f2"]
+    # the file says what it holds: eta over (fn, f1, f2) per contact
+    from forcespace.sampling.diagnostics import read_ensemble
+    back = read_ensemble(two)
+    assert back.per_contact == 3 and back.eta == pytest.approx(resumed.ensemble.eta)
+
+
+def test_sample_a_sphere_packing_from_the_command_line(tmp_path, capsys):
+    packing = Path(__file__).parents[1] / "data" / "quick3d_mu0.3.h5"
+    out = tmp_path / "e.h5"
+    argv = ["sample", str(packing), "--full", "--sampler", "hit-and-run", "-n", "8",
+            "--thin", "20", "--burn-in", "200", "-o", str(out), "--quiet"]
+    assert main(argv) == 0
+    with h5py.File(out) as f:
+        assert f["samples"].shape[1:] == (f["problem/contacts"].shape[0], 3)
+        assert f["sample_violation"][()].max() <= 1e-9
+    assert main(["ensemble", str(out)]) == 0
+    assert main(argv[:4] + ["billiard"] + argv[5:]) != 0      # polytopes only, one line
+    assert "HitAndRun" in capsys.readouterr().err
