@@ -3,11 +3,9 @@ known in closed form (ranges, dim, the inscribed ball), friction going to zero, 
 a cone's apex or on one ray of it, S a single point, empty or unbounded."""
 import numpy as np
 import pytest
-import scipy.sparse as sp
 from cases import conic_problem, sphere_on_supports
 
 from forcespace.errors import InputError
-from forcespace.model.sphere_problem import SphereStaticsProblem
 from forcespace.space import conic
 from forcespace.space.force_space import ForceSpace
 
