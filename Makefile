@@ -62,6 +62,7 @@ bench: install liggghts
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_engine
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_analysis
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_certificate
+	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_certificate --section compaction
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_measured
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_spheres
 

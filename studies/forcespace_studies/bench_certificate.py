@@ -11,11 +11,15 @@ per protocol and mu the exponent a of CPU ~ n^a (least squares in log-log over t
 recorded). A jam run separately (e.g. the 20 000-disk ones, or the old 5000-disk jam at
 mu = 1, 53-133 CPU-min) is added with ``--add PROTOCOL:MU:N:PACKING:CPU_S``.
 
-Writes (merges) the section ``certificate`` of OUT/bench.json; sizes recorded by earlier
+``--section compaction`` compares ``paper_certified`` (old) with ``paper_fast_compaction``
+(new: a doubled time step while the packing compacts) in the same way, into the section
+``compaction``. Writes (merges) the section ``certificate`` (or ``compaction``) of
+OUT/bench.json; sizes recorded by earlier
 runs are kept, the newest run winning per (mu, n, protocol). Usage::
 
     python -m forcespace_studies.bench_certificate [--sizes 200,800] [--long] [--mus 0.1,1]
-        [--out studies/out] [--add PROTOCOL:MU:N:PACKING:CPU_S ...]
+        [--section certificate|compaction] [--out studies/out]
+        [--add PROTOCOL:MU:N:PACKING:CPU_S ...]
 
 The default sizes (200, 800) take ~6 CPU-min for both protocols and mus; ``--long`` adds
 2000 and 5000 disks (CPU-hours: paper_fast at mu = 1 and 5000 disks took 53-133 CPU-min).
@@ -39,6 +43,9 @@ from forcespace.extend import write_json
 from .bench_engine import exponent
 
 PROTOCOLS = {"old": "paper_fast", "new": "paper_certified"}
+# --section: the bench.json section and the two scenes it compares (old, new)
+SECTIONS = {"certificate": PROTOCOLS,
+            "compaction": {"old": "paper_certified", "new": "paper_fast_compaction"}}
 SEED = 1
 LONG_SIZES = (2000, 5000)    # --long: the sizes of the issue's goals beyond the default
 JAM = r"""
@@ -79,17 +86,18 @@ def packing_stats(path) -> dict:
             "static_residual": float(p.equilibrium_residual())}
 
 
-def jam_cpu(protocol: str, n: int, mu: float, out: Path) -> dict:
-    """CPU seconds and the packing's statistics of one jam (a subprocess)."""
+def jam_cpu(scene: str, n: int, mu: float, out: Path) -> dict:
+    """CPU seconds and the packing's statistics of one jam of bundled ``scene`` (a
+    subprocess)."""
     env = dict(os.environ, OMP_NUM_THREADS="1")
     out.unlink(missing_ok=True)
     c0, w0 = children_cpu(), time.perf_counter()
-    res = subprocess.run([sys.executable, "-c", JAM, PROTOCOLS[protocol], str(n), str(mu),
+    res = subprocess.run([sys.executable, "-c", JAM, scene, str(n), str(mu),
                           str(SEED), str(out), json.dumps(protocol_overrides(mu))],
                          env=env, capture_output=True, text=True)
     cpu, wall = children_cpu() - c0, time.perf_counter() - w0
     if res.returncode:
-        raise RuntimeError(f"jam n={n} mu={mu} ({protocol}) failed: {res.stderr[-400:]}")
+        raise RuntimeError(f"jam n={n} mu={mu} ({scene}) failed: {res.stderr[-400:]}")
     return {"cpu_s": cpu, "wall_s": wall, "loadavg": os.getloadavg()[0], **packing_stats(out)}
 
 
@@ -102,14 +110,15 @@ def recorded(spec: str) -> tuple:
                                          **packing_stats(path)}
 
 
-def merge(path: Path, mu: float, n: int, protocol: str, row: dict) -> None:
-    """Merge one jam into section "certificate" of the JSON file (atomic), with the
-    exponents per (mu, protocol) over the sizes recorded."""
+def merge(path: Path, mu: float, n: int, protocol: str, row: dict,
+          section: str = "certificate") -> None:
+    """Merge one jam into ``section`` (of :data:`SECTIONS`) of the JSON file (atomic),
+    with the exponents per (mu, protocol) over the sizes recorded."""
     data = json.loads(path.read_text()) if path.is_file() else {}
-    sec = data.setdefault("certificate", {})
+    sec = data.setdefault(section, {})
     sec.update(machine=platform.platform(), cpu_count=os.cpu_count(),
-               timing="CPU (user + sys) of the jamming process", protocols=PROTOCOLS,
-               seed=SEED)
+               timing="CPU (user + sys) of the jamming process",
+               protocols=SECTIONS[section], seed=SEED)
     by_mu = sec.setdefault("jams", {}).setdefault(f"{mu:g}", [])
     rows = {r["n"]: r for r in by_mu}
     rows.setdefault(n, {"n": n})[protocol] = row
@@ -125,6 +134,9 @@ def main(argv=None) -> int:
     ap.add_argument("--long", action="store_true", help="add the sizes 2000 and 5000 (hours)")
     ap.add_argument("--mus", default="0.1,1")
     ap.add_argument("--which", default="old,new", help="protocols to jam (old, new)")
+    ap.add_argument("--section", default="certificate", choices=sorted(SECTIONS),
+                    help="the comparison: certificate (paper_fast, paper_certified) or "
+                         "compaction (paper_certified, paper_fast_compaction)")
     ap.add_argument("--out", type=Path, default=Path("studies/out"))
     ap.add_argument("--add", action="append", metavar="PROTOCOL:MU:N:PACKING:CPU_S",
                     help="record a jam run separately (its packing file and CPU s)")
@@ -132,21 +144,22 @@ def main(argv=None) -> int:
     a.out.mkdir(parents=True, exist_ok=True)
     bench = a.out / "bench.json"
     for spec in a.add or ():
-        merge(bench, *recorded(spec))
+        merge(bench, *recorded(spec), section=a.section)
     sizes = [int(s) for s in a.sizes.split(",")] if a.sizes else []
     sizes += [n for n in LONG_SIZES if a.long and n not in sizes]
     which = a.which.split(",")
+    scenes = SECTIONS[a.section]
     with tempfile.TemporaryDirectory() as tmp:
         for p in which:                                # compile the kernel caches
-            jam_cpu(p, 20, 0.1, Path(tmp) / "warm.h5")
+            jam_cpu(scenes[p], 20, 0.1, Path(tmp) / "warm.h5")
         for mu in (float(m) for m in a.mus.split(",")):
             for k, n in enumerate(sizes):
                 for p in (which if k % 2 == 0 else which[::-1]):
-                    row = jam_cpu(p, n, mu, Path(tmp) / f"jam_{p}_{n}.h5")
-                    merge(bench, mu, n, p, row)
-                    log(f"  mu={mu:g} n={n:5d} {p} ({PROTOCOLS[p]}): {row['cpu_s']:8.1f} CPU s,"
+                    row = jam_cpu(scenes[p], n, mu, Path(tmp) / f"jam_{p}_{n}.h5")
+                    merge(bench, mu, n, p, row, a.section)
+                    log(f"  mu={mu:g} n={n:5d} {p} ({scenes[p]}): {row['cpu_s']:8.1f} CPU s,"
                         f" {row['steps']} steps, ended by {row['jam_end']}, z {row['z']:.3f}")
-    log(f"wrote section 'certificate' of {bench}")
+    log(f"wrote section '{a.section}' of {bench}")
     return 0
 
 

@@ -293,6 +293,17 @@ def step_settings(setup: Setup, v0: float = 1.0) -> tuple[StepSettings, SweepSet
     return step, sweep
 
 
+def compacting_settings(setup: Setup, sweep: SweepSettings, v0: float = 1.0):
+    """(the sweep settings of a compacting window: ``sweep`` with dt =
+    ``solver.dt_compacting``, the window mean speed [R/T] above which the next window is
+    one) or None when the scene keeps ``solver.dt`` throughout; v0 [R/T]:
+    :func:`velocity_scale`."""
+    s = setup.solver
+    if s.dt_compacting <= 0:
+        return None
+    return sweep._replace(dt=float(s.dt_compacting)), float(s.compacting_speed * v0)
+
+
 def certificate_settings(setup: Setup, v0: float = 1.0) -> CertificateSettings:
     """When a jam of the setup is ended by a static certificate; v0 [R/T]:
     :func:`velocity_scale` (the unit of ``jamming.certificate_speed``)."""
@@ -310,15 +321,16 @@ def check_setup(setup: Setup) -> None:
     between two contact detections and end in overlaps no step removes (top_mass = 1e-6
     kept 4.5e-3 R, 22 000 x the slop).
     """
-    top, dt = setup.boundary.top, setup.solver.dt
+    top, dt = setup.boundary.top, max(setup.solver.dt, setup.solver.dt_compacting)
     if top is None:
         return
     free_step = dt ** 2 / top.mass
     margin = setup.solver.contact_margin
     if free_step > margin:
         raise InputError(setup.source, "plates.top_mass",
-                         f"must be >= solver.dt^2 / solver.contact_margin = "
+                         f"must be >= dt^2 / solver.contact_margin = "
                          f"{dt ** 2 / margin:.3g} (the plate would move "
                          f"{free_step:.3g} R in one step from rest, more than the contact "
-                         f"margin {margin:g} R: contacts are missed); raise it or lower "
-                         "solver.dt", got=top.mass)
+                         f"margin {margin:g} R: contacts are missed; dt the larger of "
+                         "solver.dt and solver.dt_compacting); raise it or lower dt",
+                         got=top.mass)

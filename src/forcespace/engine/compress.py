@@ -24,7 +24,8 @@ from ..io.checkpoint import read_checkpoint, write_checkpoint
 from ..model.setup import Setup
 from ..model.walls import N_WALL_SLOTS, SLOT_BOTTOM, SLOT_TOP
 from ..progress import progress
-from .bodies import Bodies, certificate_settings, kernel_box, step_settings, velocity_scale
+from .bodies import (Bodies, certificate_settings, compacting_settings, kernel_box,
+                     step_settings, velocity_scale)
 from .certificate import CertificateSettings, certify, frozen_system
 from .interrupts import InterruptFlag
 from .records import ContactForces, StepStats
@@ -216,6 +217,7 @@ def compress(setup: Setup, bodies: Bodies, seed: int, show_progress=True, log=No
     v_tol = setup.jamming.velocity_tol * v0
     run = run if run is not None else start_run(setup, bodies, checkpoint)
     settings = (kernel_box(setup.boundary), *step_settings(setup, v0))
+    settings = (settings, compacting_settings(setup, settings[2], v0))
     ends = (v_tol, certificate_settings(setup, v0))
     t0 = time.perf_counter()
     bar = JamProgress(v_tol, show_progress, run, setup.jamming.max_steps)
@@ -256,10 +258,12 @@ def certified(setup: Setup, bodies: Bodies, run: Run, settings: CertificateSetti
 def _windows(setup: Setup, bodies, run: Run, seed, settings, ends, bar, checkpoint,
              interrupt):
     """The window loop of :func:`compress` (until jammed; run and bodies in place).
-    ``ends``: (v_tol [R/T] of the rest criterion, CertificateSettings)."""
+    ``settings``: ((box, StepSettings, SweepSettings), :func:`~forcespace.engine.bodies.
+    compacting_settings`); ``ends``: (v_tol [R/T] of the rest criterion,
+    CertificateSettings)."""
     v_tol, cert = ends
     window = setup.jamming.window
-    window_time = window * setup.solver.dt
+    settings, compacting = settings
     last_save = time.perf_counter()
     chunk = [1]
 
@@ -273,12 +277,13 @@ def _windows(setup: Setup, bodies, run: Run, seed, settings, ends, bar, checkpoi
             save(snapshot(bodies, run))
             raise NumericalError(_not_jammed(setup, run, v_tol, checkpoint))
         before = snapshot(bodies, run)
-        st = run_window(window, bodies, run, seed, settings, chunk, interrupt,
+        now = window_settings(settings, compacting, run)
+        st = run_window(window, bodies, run, seed, now, chunk, interrupt,
                         lambda: save(before))
         run.steps += window
         run.stats = run.stats.merged(st)
         check_state(setup, bodies, run.steps)
-        v_mean = window_displacement(setup, bodies, before, run.contacts) / window_time
+        v_mean = window_displacement(setup, bodies, before, run.contacts) / (window * now[2].dt)
         run.v_ref = v_mean if not v_mean <= run.v_ref else run.v_ref
         run.log.append((run.steps, v_mean, st.max_speed, st.sweeps_total / window,
                         st.max_rel_change))
@@ -296,6 +301,16 @@ def _windows(setup: Setup, bodies, run: Run, seed, settings, ends, bar, checkpoi
             save(snapshot(bodies, run))
             last_save = time.perf_counter()
         bar.update(run)
+
+
+def window_settings(settings, compacting, run: Run):
+    """The (box, StepSettings, SweepSettings) of the next window: ``settings``, or with
+    ``compacting`` = (SweepSettings, speed [R/T]) its sweep settings (the larger
+    ``solver.dt_compacting``) for the first window and after a window whose mean speed
+    exceeded the speed (a function of the run's log, so a resumed run continues alike)."""
+    if compacting is None or (run.log and not run.log[-1][1] > compacting[1]):
+        return settings
+    return settings[0], settings[1], compacting[0]
 
 
 def _not_jammed(setup: Setup, run: Run, v_tol, checkpoint) -> str:

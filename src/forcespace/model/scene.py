@@ -332,6 +332,14 @@ SCHEMA: dict[str, Key] = {
                                       "fraction of solver.max_sweeps after which an "
                                       "unconverged over-relaxed solve continues with omega = 1 "
                                       "(1: never)"),
+    "solver.dt_compacting": Key(float, 0.0, _nonneg(),
+                                "time step of a window that follows a window whose mean speed "
+                                "exceeded solver.compacting_speed (the packing still "
+                                "compacting; 0: solver.dt throughout)", "sqrt(rho R^3 / F)"),
+    "solver.compacting_speed": Key(float, 0.0, _nonneg(),
+                                   "window mean speed, relative to sqrt(F0 rbar/mbar) as "
+                                   "jamming.velocity_tol, above which the next window steps by "
+                                   "solver.dt_compacting (the first window always does)"),
     "solver.contact_margin": Key(float, 0.1, _positive(),
                                  "pairs closer than this gap enter the contact list", "R"),
     "jamming.velocity_tol": Key(float, 1e-7, _positive(),
@@ -437,7 +445,8 @@ class Scene:
         since time and speed are measured in units built from the plate load,
         ``solver.dt`` scales by sqrt(f) and ``jamming.velocity_tol`` (and a non-zero
         ``jamming.certificate_speed``) by 1/sqrt(f) (the same physical step and rest
-        criterion). Spheres (3-D): lengths (width, a set depth, slice height) scale by
+        criterion; a non-zero ``solver.dt_compacting`` and its ``solver.compacting_speed``
+        likewise). Spheres (3-D): lengths (width, a set depth, slice height) scale by
         f = (n / n0)^(1/3), the plate's load and mass by its area factor g = f^2, dt by
         sqrt(g) and velocity_tol by 1/sqrt(g).
         Returns (scene, one-line description of what was scaled)."""
@@ -465,6 +474,11 @@ class Scene:
                         "plates.top_mass": self["plates.top_mass"] * g,
                         "solver.dt": self["solver.dt"] * math.sqrt(g),
                         "jamming.velocity_tol": self["jamming.velocity_tol"] / math.sqrt(g)})
+            if self["solver.dt_compacting"] > 0:     # a time step and a speed, as above
+                keys += ["solver.dt_compacting", "solver.compacting_speed"]
+                new.update({"solver.dt_compacting": self["solver.dt_compacting"] * math.sqrt(g),
+                            "solver.compacting_speed": (self["solver.compacting_speed"]
+                                                        / math.sqrt(g))})
             if self["jamming.certificate_speed"] > 0:     # a speed like velocity_tol
                 keys.append("jamming.certificate_speed")
                 new["jamming.certificate_speed"] = (self["jamming.certificate_speed"]

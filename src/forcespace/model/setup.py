@@ -100,6 +100,8 @@ class Solver:
     moving_speed: float
     max_sweeps_moving: int
     relaxation_fallback: float
+    dt_compacting: float
+    compacting_speed: float
     contact_margin: float
 
 

@@ -1,0 +1,111 @@
+"""A doubled time step while compacting (issue 42): does ``paper_fast_compaction``
+(``paper_certified`` with ``solver.dt_compacting`` = 2 x ``solver.dt`` in every window that
+follows a window faster than ``solver.compacting_speed``) jam the same packings,
+statistically, as ``paper_certified``?
+
+Both scenes jam the same seeds 1..k at n = 200 and 800 disks (boxes scaled as ``--n N
+--scale-box``), mu = 0.1 and 1, at mu = 1 with the size study's ``solver.tolerance =
+1e-8`` (as :mod:`forcespace_studies.certificate_speed`). Per packing: z, packing fraction,
+rattler fraction, mobilised fraction (:func:`forcespace_studies.certificate_validation.
+mobilised_fraction`), jam CPU s (process CPU of the jam, one BLAS thread), steps, how the
+jam ended and the static residual. dim S / Nc and eta are not measured here (the slice
+analysis and the billiard walk cost minutes per packing). The reference rows of
+``paper_certified`` that ``studies/results/certificate_speed/rows.jsonl`` holds (factor
+100: the shipped scene) are taken from there, not jammed again (the jam is
+deterministic); the others are jammed here, reference and candidate alternately.
+
+Per (n, mu) and quantity: mean +- standard error, Welch's t-test and the two-sample
+Kolmogorov-Smirnov test (:func:`forcespace_studies.protocol_validation.table`); p < 0.05
+counts as a difference, fixed before the run. Rows go to OUT/rows.jsonl as they finish (a
+rerun skips the rows it has), the tables to stdout. Usage::
+
+    python -m forcespace_studies.compaction_validation [--sizes 200,800] [--mus 0.1,1]
+        [--seeds 10] [--jobs 1] [--out studies/results/compaction_validation]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from pathlib import Path
+
+from .certificate_speed import QUANTITIES
+from .certificate_validation import mobilised_fraction
+from .protocol_validation import pool_rows, table
+
+PROTOCOLS = {"reference": "paper_certified", "candidate": "paper_fast_compaction"}
+SHIPPED = Path("studies/results/certificate_speed/rows.jsonl")   # paper_certified at 1e-2
+
+
+def one(protocol: str, n: int, mu: float, seed: int) -> dict:
+    """Jam and measure one packing of ``PROTOCOLS[protocol]`` (a worker process)."""
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    from forcespace import load_scene
+    from forcespace.extend import Setup, build_packing
+    from .size import FULL
+    scene, _ = load_scene(PROTOCOLS[protocol]).scaled_to(n)
+    scene = scene.with_overrides(**{"physics.mu": mu, "scene.seed": seed,
+                                    **FULL["protocol_by_mu"].get(mu, {})})
+    t0 = time.process_time()
+    p = build_packing(Setup.from_scene(scene), show_progress=False)
+    cpu = time.process_time() - t0
+    m = p.meta
+    return {"protocol": protocol, "scene": PROTOCOLS[protocol], "n": n, "mu": mu,
+            "seed": seed, "jam_cpu_s": cpu, "jam_steps": int(m["steps"]),
+            "jam_end": m["jam_end"], "certificates": int(m["certificates_tried"]),
+            "z": float(p.coordination()), "phi": float(p.packing_fraction()),
+            "rattler_fraction": float(p.rattlers().mean()),
+            "mobilised_fraction": mobilised_fraction(p, mu),
+            "static_residual": float(m["static_residual"])}
+
+
+def shipped_rows() -> list:
+    """paper_certified's rows of the certificate-speed study (the shipped scene)."""
+    if not SHIPPED.is_file():
+        return []
+    rows = [json.loads(x) for x in SHIPPED.read_text().splitlines()]
+    return [dict(r, protocol="reference", scene=PROTOCOLS["reference"],
+                 taken_from=str(SHIPPED)) for r in rows if r.get("factor") == 100.0]
+
+
+def report(rows: list) -> str:
+    """Tables per mu (reference against candidate over the seeds both have)."""
+    out = []
+    for mu in sorted({r["mu"] for r in rows}):
+        sub = [r for r in rows if r["mu"] == mu]
+        both = ({(r["n"], r["seed"]) for r in sub if r["protocol"] == "reference"}
+                & {(r["n"], r["seed"]) for r in sub if r["protocol"] == "candidate"})
+        sub = [r for r in sub if (r["n"], r["seed"]) in both]
+        sizes = sorted({n for n, _s in both})
+        out += [f"### mu = {mu:g}: paper_certified (reference) against paper_fast_compaction "
+                "(candidate)", "", table(sub, sizes, "candidate", QUANTITIES), ""]
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="200,800")
+    ap.add_argument("--mus", default="0.1,1")
+    ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--out", type=Path, default=Path("studies/results/compaction_validation"))
+    a = ap.parse_args(argv)
+    a.out.mkdir(parents=True, exist_ok=True)
+    path = a.out / "rows.jsonl"
+    rows = [json.loads(x) for x in path.read_text().splitlines()] if path.is_file() else []
+    have = {(r["protocol"], r["n"], r["mu"], r["seed"]) for r in rows}
+    shipped = [r for r in shipped_rows() if ("reference", r["n"], r["mu"], r["seed"]) not in have]
+    have |= {(r["protocol"], r["n"], r["mu"], r["seed"]) for r in shipped}
+    todo = [(one, (pr, int(n), float(mu), s)) for n in a.sizes.split(",")
+            for mu in a.mus.split(",") for s in range(1, a.seeds + 1)
+            for pr in PROTOCOLS if (pr, int(n), float(mu), s) not in have]
+    pool_rows(todo, a.jobs, path, rows,
+              lambda r: f"  {r['protocol']:9s} n={r['n']} mu={r['mu']:g} seed={r['seed']}: "
+                        f"{r['jam_cpu_s']:.1f} CPU s, {r['jam_steps']} steps, z {r['z']:.4f}")
+    print(report(rows + shipped))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
