@@ -2,9 +2,10 @@
 trajectory as an unprofiled jam, every window and phase accounted for, the engine left as
 it was."""
 import numpy as np
+import pytest
 
 from forcespace.engine import compress, protocol
-from forcespace.engine.jam_profile import profile, scene_for, table
+from forcespace.engine.jam_profile import compaction_phases, profile, scene_for, table
 from forcespace.model.setup import Setup
 
 
@@ -24,3 +25,7 @@ def test_the_profiled_jam_is_the_protocols_own():
     assert p["certificates_tried"] >= 1 and np.isfinite(rows[0]["detect_s"])
     shares = table(p)
     assert len(shares) == 6 and shares[-1].startswith(f"| total ({p['steps']} steps")
+    # the stages split the same windows: their steps and CPU add up to the windows'
+    stages = [row.split("|") for row in compaction_phases(p)]
+    assert sum(int(r[3]) for r in stages) == p["steps"]
+    assert sum(float(r[4]) for r in stages) == pytest.approx(cpu, abs=0.06 * len(stages))

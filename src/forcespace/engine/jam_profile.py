@@ -10,7 +10,9 @@
   configuration every 10th window (20 rebuilds) and multiplied out over all steps (it is
   part of the windows' CPU);
 - the certificate attempts (interior point) and the static network (the certificate's
-  network polished by static sweeps).
+  network polished by static sweeps);
+- the windows again by the stage of the compaction (:func:`compaction_phases`: the plate
+  at its steady speed, decelerating, settled).
 
 The windows are timed by wrapping :func:`forcespace.engine.compress.run_window`; the
 packing is the protocol's own (same trajectory). Writes OUT/profile_N_muMU.json (per
@@ -127,6 +129,30 @@ def table(p: dict) -> list[str]:
     return out
 
 
+def compaction_phases(p: dict) -> list[str]:
+    """Markdown rows: the windows of one profile split by the top plate's largest speed
+    in the window: steady compaction (above half the largest of the jam), deceleration
+    (down to ``moving_speed``) and settled; windows, steps, CPU s and share, mean sweeps
+    per step, mean contacts and mean sweeps x contacts per step (contact updates)."""
+    w = p["windows"]
+    v = np.array([r["plate_speed"] for r in w])
+    cpu = np.array([r["cpu_s"] for r in w])
+    sweeps = np.array([r["sweeps_per_step"] for r in w])
+    contacts = np.array([r["contacts"] for r in w], float)
+    steps = np.diff([0] + [r["steps"] for r in w])
+    stage = np.where(v > 0.5 * v.max(), 0, np.where(v > p["moving_speed"], 1, 2))
+    out = []
+    for k, name in enumerate(("steady compaction (plate > half its top speed)",
+                              "deceleration", "settled")):
+        s = stage == k
+        if not s.any():
+            continue
+        out.append(f"| {name} | {int(s.sum())} | {int(steps[s].sum())} | {cpu[s].sum():.1f} | "
+                   f"{100 * cpu[s].sum() / p['cpu_s']:.0f} % | {sweeps[s].mean():.0f} | "
+                   f"{contacts[s].mean():.0f} | {(sweeps[s] * contacts[s]).mean():.3g} |")
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=2000)
@@ -149,6 +175,10 @@ def main(argv=None) -> int:
     print("| phase | windows | CPU s | share | sweeps / step | steps at cap |")
     print("|---|---|---|---|---|---|")
     print("\n".join(table(p)))
+    print("\n| stage | windows | steps | CPU s | share | sweeps / step | contacts | "
+          "contact updates / step |")
+    print("|---|---|---|---|---|---|---|---|")
+    print("\n".join(compaction_phases(p)))
     return 0
 
 
