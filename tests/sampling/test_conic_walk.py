@@ -1,6 +1,7 @@
-"""Uniform sampling of S of spheres (circular Coulomb cones) through the sampling driver:
-exact chords, uniform marginals on a solid cone (with a planted error the test catches),
-files that resume bit for bit, and the command line on a sphere packing."""
+"""Uniform sampling of S of spheres (circular Coulomb cones) through the sampling driver,
+by hit-and-run (exact chords) and the billiard walk (reflections off the cones): uniform
+marginals on a solid cone (with a planted error the test catches), files that resume bit
+for bit, and the command line on a sphere packing."""
 from pathlib import Path
 
 import h5py
@@ -11,6 +12,7 @@ from scipy.stats import kstest
 
 from forcespace.cli import main
 from forcespace.sampling import conic_walk
+from forcespace.sampling.billiard import BilliardWalk
 from forcespace.sampling.hit_and_run import HitAndRun
 
 MU = 0.5
@@ -33,29 +35,48 @@ def marginal_pvalues(X):
             kstest(q, lambda s: np.clip(s, 0, 1) ** 2).pvalue)
 
 
-@pytest.mark.parametrize("direction", ["coordinate", "hypersphere"])
-def test_hit_and_run_is_uniform_on_a_solid_cone(direction):
+UNIFORM = [(HitAndRun, {"thin": 5, "direction": "coordinate"}),
+           (HitAndRun, {"thin": 5, "direction": "hypersphere"}),
+           (BilliardWalk, {})]
+
+
+@pytest.mark.parametrize("cls, options", UNIFORM)
+def test_the_walks_are_uniform_on_a_solid_cone(cls, options):
     prob = solid_cone()
-    hr = HitAndRun(1200, seed=3, chains=4, thin=5, direction=direction).compute(prob)
-    X = hr.ensemble.samples
-    assert hr.dim == 3 and hr.ensemble.per_contact == 3
-    assert hr.ensemble.violations.max() <= 1e-9
+    walk = cls(1200, seed=3, chains=4, **options).compute(prob)
+    X = walk.ensemble.samples
+    assert walk.dim == 3 and walk.ensemble.per_contact == 3
+    assert walk.ensemble.violations.max() <= 1e-9
     assert min(marginal_pvalues(X)) > 1e-3
-    assert hr.ensemble.diagnostics["max_rhat"] < 1.05
+    assert walk.ensemble.diagnostics["max_rhat"] < 1.05
 
 
-def test_the_uniformity_test_catches_a_walk_in_a_narrower_cone(monkeypatch):
-    # planted error: chords through the cone of mu cos(pi/8) (the inscribed octagon's
-    # inradius): every sample still in S, but |f_t| never reaches mu fn
+@pytest.mark.parametrize("cls, options", [UNIFORM[0], UNIFORM[2]])
+def test_the_uniformity_test_catches_a_walk_in_a_narrower_cone(monkeypatch, cls, options):
+    # planted error: chords and reflections off the cone of mu cos(pi/8) (the inscribed
+    # octagon's inradius): every sample still in S, but |f_t| never reaches mu fn
     real = conic_walk.conic_frame
 
     def narrower(problem, analysis=None):
         fr, cone, mu, line = real(problem, analysis)
         return fr, cone, mu * np.cos(np.pi / 8), line
     monkeypatch.setattr(conic_walk, "conic_frame", narrower)
-    hr = HitAndRun(1200, seed=3, chains=4, thin=5).compute(solid_cone())
-    assert hr.ensemble.violations.max() <= 1e-9
-    assert marginal_pvalues(hr.ensemble.samples)[1] < 1e-6
+    walk = cls(1200, seed=3, chains=4, **options).compute(solid_cone())
+    assert walk.ensemble.violations.max() <= 1e-9
+    assert marginal_pvalues(walk.ensemble.samples)[1] < 1e-6
+
+
+def test_a_reflection_off_a_cone_is_specular():
+    # the billiard's reflection at (fn, f1, f2) = (1, 0.5, 0) on the cone mu = 0.5: normal
+    # (-mu, 1, 0) / |.|; v = (0, 1, 0) (outward) -> v - 2 (v.n) n, |v| kept, q = T v
+    T = np.eye(3)
+    v, q = np.array([0.0, 1.0, 0.0]), np.zeros(3)
+    conic_walk.reflect(T, np.array([1.0, 0.5, 0.0]), v, q, 0, 0, 0.5)
+    n = np.array([-0.5, 1.0, 0.0]) / np.hypot(0.5, 1.0)
+    np.testing.assert_allclose(v, np.array([0, 1.0, 0]) - 2 * n[1] * n, atol=1e-15)
+    np.testing.assert_allclose(q, v)
+    assert np.linalg.norm(v) == pytest.approx(1.0)
+    assert v @ n < 0                                      # now inward
 
 
 def test_the_chord_of_a_cone_is_exact():
@@ -79,12 +100,13 @@ def test_the_chord_of_a_cone_is_exact():
                 assert e[0] >= -1e-12
 
 
-def test_a_sphere_ensemble_file_resumes_bit_for_bit(tmp_path):
+@pytest.mark.parametrize("cls, options", [UNIFORM[0], UNIFORM[2]])
+def test_a_sphere_ensemble_file_resumes_bit_for_bit(tmp_path, cls, options):
     prob = solid_cone()
     one, two = tmp_path / "one.h5", tmp_path / "two.h5"
-    straight = HitAndRun(30, seed=5, thin=7, checkpoint_every=4).compute(prob, output=one)
-    HitAndRun(13, seed=5, thin=7, checkpoint_every=4).compute(prob, output=two)
-    resumed = HitAndRun(30, seed=5, thin=7, checkpoint_every=4).compute(prob, output=two)
+    straight = cls(30, seed=5, checkpoint_every=4, **options).compute(prob, output=one)
+    cls(13, seed=5, checkpoint_every=4, **options).compute(prob, output=two)
+    resumed = cls(30, seed=5, checkpoint_every=4, **options).compute(prob, output=two)
     np.testing.assert_array_equal(straight.ensemble.samples, resumed.ensemble.samples)
     with h5py.File(two) as f:
         assert f["samples"].shape == (30, 2, 3)
@@ -105,5 +127,10 @@ def test_sample_a_sphere_packing_from_the_command_line(tmp_path, capsys):
         assert f["samples"].shape[1:] == (f["problem/contacts"].shape[0], 3)
         assert f["sample_violation"][()].max() <= 1e-9
     assert main(["ensemble", str(out)]) == 0
-    assert main(argv[:4] + ["billiard"] + argv[5:]) != 0      # polytopes only, one line
-    assert "HitAndRun" in capsys.readouterr().err
+    # no --sampler: spheres get the billiard walk (the faster per effective sample)
+    default = tmp_path / "b.h5"
+    assert main(argv[:3] + argv[5:7] + ["-o", str(default), "--quiet"]) == 0
+    with h5py.File(default) as f:
+        assert f.attrs["sampler"] == "billiard"
+    assert main(argv[:4] + ["relax"] + argv[5:]) != 0        # polytopes only, one line
+    assert "StaticsProblem" in capsys.readouterr().err

@@ -66,6 +66,7 @@ from ..errors import InputError, require_int
 from ..kernels import kernel
 from ..progress import progress as progress_bar
 from ..streams import chain_states, start_generator
+from .conic_walk import ConicBilliardWalk
 from .driver import FrameSampler
 from .frame import FrameWalk
 from .rounding import lewis_rounding_with_progress
@@ -438,6 +439,7 @@ class BilliardWalk(FrameSampler):
     """
 
     Walk = BilliardFrameWalk
+    ConicWalk = ConicBilliardWalk
 
     def __init__(self, n: int = 100, seed: int = 0, chains: int | None = None,
                  thin: int | None = None, burn_in: int | None = None,
@@ -452,6 +454,8 @@ class BilliardWalk(FrameSampler):
                          length=length, rounding_updates=rounding_updates)
 
     def _walk_results(self, walk: BilliardFrameWalk) -> dict:
+        if isinstance(walk, ConicBilliardWalk):
+            return walk.results()
         t, w = walk.walk.counts.sum(0), walk.walk
         return {"counts": {"trajectories": int(t[TRAJ]), "reflections": int(t[REFL]),
                            "discarded": int(t[DISCARDED]),

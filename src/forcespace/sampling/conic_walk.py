@@ -164,6 +164,99 @@ def conic_har_steps(T, xc, cone, mu, line, w, state, n_steps, coordinate):
     return bad
 
 
+@kernel
+def first_hit(x, q, cone, mu, line):
+    """(t, kind, k): where the ray {x + t q, t >= 0} leaves S first: t [F0 per unit q],
+    kind 0 for cone k (of ``cone``), 1 for the fn >= 0 of line contact k, -1 never."""
+    t, kind, at = np.inf, -1, -1
+    for k in range(cone.size):
+        j = 3 * cone[k]
+        hi = cone_interval(x[j], x[j + 1], x[j + 2], q[j], q[j + 1], q[j + 2], mu[k])[1]
+        if hi < t:
+            t, kind, at = hi, 0, k
+    for k in range(line.size):
+        j = 3 * line[k]
+        if q[j] < -1e-300:
+            hi = max(x[j], 0.0) / -q[j]
+            if hi < t:
+                t, kind, at = hi, 1, k
+    return t, kind, at
+
+
+@kernel
+def reflect(T, x, v, q, j, kind, mu):
+    """Reflect the velocity v (d,) in place off the surface of contact j's constraint at x
+    (kind 0: the cone |f_t| <= mu fn, normal (-mu, f_t / |f_t|); 1: fn >= 0, normal
+    (-1, 0, 0)), mapped to w by T^T; q = T v recomputed (3m,)."""
+    n3, d = T.shape
+    g = np.zeros(3)
+    g[0] = -mu if kind == 0 else -1.0
+    if kind == 0:
+        ft = np.hypot(x[3 * j + 1], x[3 * j + 2])
+        if ft > 0.0:
+            g[1], g[2] = x[3 * j + 1] / ft, x[3 * j + 2] / ft
+    nw = np.zeros(d)
+    for i in range(d):
+        nw[i] = g[0] * T[3 * j, i] + g[1] * T[3 * j + 1, i] + g[2] * T[3 * j + 2, i]
+    nn, vn = 0.0, 0.0
+    for i in range(d):
+        nn += nw[i] * nw[i]
+        vn += nw[i] * v[i]
+    if nn > 0.0:
+        for i in range(d):
+            v[i] -= 2.0 * vn / nn * nw[i]
+    for r in range(n3):
+        acc = 0.0
+        for i in range(d):
+            acc += T[r, i] * v[i]
+        q[r] = acc
+
+
+@kernel
+def conic_billiard_steps(T, xc, cone, mu, line, w, state, n_traj, tau, max_refl, counts):
+    """Run ``n_traj`` billiard trajectories on S from w (d,) in place: velocity g ~ N(0, I)
+    in w, length tau |g| / sqrt(d) (reflective HMC), specular reflections off the cones
+    and the fn >= 0 faces (:func:`reflect`); a trajectory with more than ``max_refl``
+    reflections is discarded (the chain stays). counts (3,) int64 += trajectories,
+    reflections, discarded. T (3m, d) C order, xc (3m,) [F0]: x = xc + T w."""
+    n3, d = T.shape
+    v, w0, q = np.zeros(d), np.zeros(d), np.zeros(n3)
+    for _ in range(n_traj):
+        nrm = 0.0
+        for i in range(d):
+            v[i] = normal(state)
+            nrm += v[i] * v[i]
+            w0[i] = w[i]
+        nrm = np.sqrt(nrm)
+        for i in range(d):
+            v[i] /= nrm
+        left = tau * nrm / np.sqrt(d)
+        x = xc + T @ w
+        q[:] = T @ v
+        refl = 0
+        while True:
+            t, kind, k = first_hit(x, q, cone, mu, line)
+            if t >= left:
+                t = left
+            for i in range(d):
+                w[i] += t * v[i]
+            for r in range(n3):
+                x[r] += t * q[r]
+            left -= t
+            if left <= 0.0 or kind < 0:
+                break
+            refl += 1
+            if refl > max_refl:
+                w[:] = w0
+                counts[2] += 1
+                break
+            j = cone[k] if kind == 0 else line[k]
+            reflect(T, x, v, q, j, kind, mu[k] if kind == 0 else 0.0)
+        counts[0] += 1
+        counts[1] += refl
+    return counts[2]
+
+
 def cone_chords(P, Q, mu):
     """(lo, hi) (k,): :func:`cone_interval` of k cones at once; P, Q (k, 3) rows (fn, f1,
     f2) of the points (inside their cones) and of the direction; mu (k,) > 0."""
@@ -231,7 +324,9 @@ SETUP_DESCRIPTION = {
     "free_rows": ("1", "line contacts (frictionless or on a ray of their cone): fn >= 0"),
     "cone_contacts": ("1", "unknown contacts whose cone S enters fully (the walk's cones)"),
     "cone_mu": ("1", "their Coulomb coefficients"),
-    "mve_axis_ratio": ("1", "axis ratio of the pyramids' inscribed ellipsoid per pass")}
+    "mve_axis_ratio": ("1", "axis ratio of the pyramids' inscribed ellipsoid per pass"),
+    "tau": ("1", "billiard: path-length scale in w, fixed at the end of the burn-in"),
+    "max_refl": ("1", "billiard: reflections above which a trajectory is discarded")}
 
 
 def conic_default_params(d: int, **kw) -> dict:
@@ -326,3 +421,102 @@ class ConicHitAndRunWalk(FrameWalk):
 
     def state_attrs(self) -> dict:
         return {"steps_per_sample": self.params["thin"]}
+
+
+class ConicBilliardWalk(ConicHitAndRunWalk):
+    """The billiard walk on S of spheres (reflective HMC lengths, specular reflections off
+    the cones by their surface normal at the hit point; :func:`conic_billiard_steps`) in
+    the same rounded frame as :class:`ConicHitAndRunWalk`, whose hit-and-run does the
+    burn-in: ``har_burn_in`` coordinate steps per chain, then ``TAU_STATES`` states per
+    chain, ``thin``-of-hit-and-run apart, whose rms distance from their mean times
+    ``tau_factor`` is tau; then ``burn_in`` trajectories per chain. ``thin`` trajectories
+    of chain i % chains between its samples."""
+
+    sampler = "billiard"
+    STATE = ("w", "rng", "counts")
+    TAU_STATES = 8
+
+    def default_params(self, options: dict) -> dict:
+        if options.get("length") not in (None, "rehmc"):
+            raise InputError("sample", "length", "must be 'rehmc' on S of spheres (the only "
+                             "trajectory law of the conic billiard so far)",
+                             got=options["length"])
+        if options.get("rounding_updates") is not None:
+            raise InputError("sample", "rounding_updates", "is not used on S of spheres "
+                             "(rounded by the circumscribed pyramids)",
+                             got=options["rounding_updates"])
+        d = max(self.d, 1)
+        p = {"seed": 0, "chains": 4, "thin": 1, "burn_in": 50, "tau_factor": 2.5,
+             "length": "rehmc", "rounding": f"pyramids{PYRAMID_SIDES}",
+             "har_burn_in": max(500, 10 * d * d), "direction": "coordinate"}
+        p.update({k: v for k, v in options.items() if v is not None
+                  and k not in ("rounding_updates",)})
+        return p
+
+    def start_chains(self, H, s):
+        self.counts = np.zeros((self.params["chains"], 3), np.int64)
+        self.tau, self.max_refl = 1.0, 100 * max(self.d, 10)
+        return super().start_chains(H, s)
+
+    def _burn_in(self) -> None:
+        t1, c1 = time.perf_counter(), time.process_time()
+        p, W = self.params, self.W
+        spaced = max(50, self.d * self.d)
+        seen = []
+        for c in range(W.shape[0]):
+            self._steps(c, p["har_burn_in"])
+            for _ in range(self.TAU_STATES):
+                self._steps(c, spaced)
+                seen.append(W[c].copy())
+        seen = np.array(seen)
+        rms = float(np.sqrt(((seen - seen.mean(0)) ** 2).sum(1).mean()))
+        self.tau = p["tau_factor"] * rms
+        with progress_bar(total=W.shape[0] * p["burn_in"], unit="trajectory",
+                          desc=f"billiard burn-in ({W.shape[0]} chains)",
+                          disable=not self.progress) as bar:
+            for c in range(W.shape[0]):
+                for _ in range(p["burn_in"]):
+                    self._trajectories(c, 1)
+                    bar.update(1)
+        self.counts[:] = 0
+        self.ok = tuple(a.copy() for a in self.chain_arrays())
+        self.times["burn_in_s"] = time.perf_counter() - t1
+        self.cpu["burn_in_s"] = time.process_time() - c1
+
+    def _start(self, xc, T) -> None:
+        self.Tc = np.ascontiguousarray(T)
+        super()._start(xc, T)
+
+    def _trajectories(self, c: int, n: int) -> None:
+        conic_billiard_steps(self.Tc, self.xc, self.cone, self.cone_mu, self.line, self.W[c],
+                             self.states[c], n, self.tau, self.max_refl, self.counts[c])
+
+    def setup_extra(self) -> dict:
+        return dict(super().setup_extra(), tau=self.tau, max_refl=self.max_refl)
+
+    def resume_chains(self, setup, checkpoint, state) -> None:
+        super().resume_chains(setup, checkpoint, state)
+        self.tau, self.max_refl = float(setup["tau"]), int(setup["max_refl"])
+        self.counts = checkpoint["counts"].astype(np.int64).reshape(-1, 3).copy()
+
+    def chain_arrays(self) -> tuple:
+        return self.W, self.states, self.counts
+
+    def advance(self, c: int) -> None:
+        self._trajectories(c, self.params["thin"])
+
+    def results(self) -> dict:
+        """The run's counts and walk parameters (:class:`~forcespace.sampling.billiard.
+        BilliardWalk`'s ``counts`` and ``walk_info``)."""
+        t = self.counts.sum(0)
+        return {"counts": {"trajectories": int(t[0]), "reflections": int(t[1]),
+                           "discarded": int(t[2])},
+                "walk_info": {"tau": float(self.tau), "max_refl": int(self.max_refl),
+                              "rounding": self.rounding_info}}
+
+    def postfix(self) -> dict:
+        t = self.counts.sum(0)
+        return {"refl/traj": f"{t[1] / max(t[0], 1):.0f}", "discarded": int(t[2])}
+
+    def state_attrs(self) -> dict:
+        return {"trajectories_per_sample": self.params["thin"]}

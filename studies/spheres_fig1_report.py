@@ -1,0 +1,194 @@
+"""The report of ``studies/spheres_fig1.py``: the table per mu, the figure and the verdicts
+by the rules fixed in that script's docstring (n = 100 spheres throughout)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def by_mu(rows):
+    """{mu: [rows]} (one row per packing; the last one wins)."""
+    uniq = {(r["mu"], r["seed"]): r for r in rows}
+    out = {}
+    for (mu, _), r in sorted(uniq.items()):
+        out.setdefault(mu, []).append(r)
+    return out
+
+
+def mean_se(v):
+    v = np.asarray(v, float)
+    if v.size == 0:
+        return np.nan, np.nan
+    return float(v.mean()), float(v.std(ddof=1) / np.sqrt(v.size)) if v.size > 1 else np.nan
+
+
+def table(groups) -> str:
+    head = ("| μ | packings | z | N_c | 3N_c − 6n | dim S (whole) | dim S / N_c | "
+            "(3N_c − 6n) / N_c | dim S = 0 | η (whole, billiard; mean ± s.e.) | "
+            "min ESS | max R-hat |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+    lines = []
+    for mu, rs in groups.items():
+        def ms(key, fmt, rs=rs):
+            m, s = mean_se([r[key] for r in rs])
+            return f"{m:{fmt}}" + ("" if not np.isfinite(s) else f" ± {s:{fmt}}")
+        ratio = ms_of([r["dim_S"] / r["n_contacts"] for r in rs])
+        deg = ms_of([r["count_3Nc_minus_6n"] / r["n_contacts"] for r in rs])
+        ess = [r["ess"] for r in rs if r["ess"] is not None]
+        rh = [r["rhat"] for r in rs if r["rhat"] is not None]
+        lines.append(f"| {mu:g} | {len(rs)} | {ms('z', '.3f')} | {ms('n_contacts', '.0f')} | "
+                     f"{ms('count_3Nc_minus_6n', '.0f')} | {ms('dim_S', '.1f')} | {ratio} | "
+                     f"{deg} | {sum(r['dim_S'] == 0 for r in rs)} of {len(rs)} | "
+                     f"{ms('eta', '.4g')} | "
+                     f"{min(ess):.0f} | {max(rh):.3f} |" if ess else
+                     f"| {mu:g} | {len(rs)} | {ms('z', '.3f')} | {ms('n_contacts', '.0f')} | "
+                     f"{ms('count_3Nc_minus_6n', '.0f')} | {ms('dim_S', '.1f')} | {ratio} | "
+                     f"{deg} | {sum(r['dim_S'] == 0 for r in rs)} of {len(rs)} | "
+                     f"{ms('eta', '.4g')} | – | – |")
+    return head + "\n".join(lines) + "\n"
+
+
+def ms_of(v) -> str:
+    m, s = mean_se(v)
+    return f"{m:.3f}" + ("" if not np.isfinite(s) else f" ± {s:.3f}")
+
+
+def slope_rule(rows) -> str:
+    pts = [(r["mu"], r["eta"]) for r in rows if 0 < r["mu"] <= 0.01 and r["eta"] > 0]
+    if len({m for m, _ in pts}) < 2:
+        return "| 1 | eta ∝ mu at small mu (mu <= 0.01) | fewer than two mu values | **not decidable** |"
+    x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+    slope = np.polyfit(x, y, 1)[0]
+    rng = np.random.default_rng(0)
+    boots = []
+    for _ in range(2000):
+        i = rng.integers(0, len(x), len(x))
+        if np.ptp(x[i]) > 0:
+            boots.append(np.polyfit(x[i], y[i], 1)[0])
+    lo, hi = np.percentile(boots, [2.5, 97.5])
+    verdict = "reproduced" if lo <= 1 <= hi and lo > 0 else \
+        "refuted" if not lo <= 1 <= hi else "not decidable"
+    return (f"| 1 | eta ∝ mu at small mu (mu <= 0.01) | d log eta / d log mu = {slope:.3f} "
+            f"(95 %: {lo:.3f} to {hi:.3f}), {len(pts)} packings | **{verdict}** |")
+
+
+def maximum_rules(groups) -> list[str]:
+    from scipy.stats import kendalltau
+    mus = [m for m in groups if m > 0]
+    if len(mus) < 3:
+        return ["| 2 | eta largest at an intermediate mu | fewer than 3 mu values | "
+                "**not decidable** |"]
+    stats = {m: mean_se([r["eta"] for r in groups[m]]) for m in mus}
+    top = max(mus, key=lambda m: stats[m][0])
+    ends = (mus[0], mus[-1])
+
+    def se(m):
+        return stats[m][1] if np.isfinite(stats[m][1]) else np.inf
+    if top in ends:
+        v2 = "refuted"
+    elif all(stats[top][0] - stats[e][0] > 2 * np.hypot(se(top), se(e)) for e in ends):
+        v2 = "reproduced"
+    else:
+        v2 = "not decidable"
+    means = ", ".join(f"{m:g}: {stats[m][0]:.4g}" for m in mus)
+    out = [f"| 2 | eta largest at an intermediate mu (2-D: ~0.1) | largest mean eta at mu = "
+           f"{top:g} (means {means}) | **{v2}** |"]
+    pts = [(r["mu"], r["eta"]) for m in mus if m >= top for r in groups[m]]
+    if len({m for m, _ in pts}) >= 2:
+        tau, p = kendalltau([a for a, _ in pts], [b for _, b in pts])
+        p1 = p / 2 if tau < 0 else 1 - p / 2
+        v3 = "reproduced" if tau < 0 and p1 < 0.05 else \
+            "refuted" if tau > 0 and 1 - p1 < 0.05 else "not decidable"
+        out.append(f"| 3 | eta decreases beyond the maximum | Kendall tau = {tau:.2f} "
+                   f"(one-sided p = {p1:.2g}) over {len(pts)} packings at mu >= {top:g} | "
+                   f"**{v3}** |")
+    return out
+
+
+def determinate_rule(groups) -> str:
+    big = [r for m, rs in groups.items() if m >= 1 for r in rs]
+    small = [r for m, rs in groups.items() if 0 < m <= 0.01 for r in rs]
+    nb, ns = sum(r["dim_S"] == 0 for r in big), sum(r["dim_S"] == 0 for r in small)
+    verdict = "reproduced" if nb and not ns else "refuted" if len(big) >= 5 and not nb \
+        else "not decidable"
+    per = ", ".join(f"{sum(r['dim_S'] == 0 for r in rs)} of {len(rs)} at mu = {m:g}"
+                    for m, rs in groups.items() if m >= 1)
+    return (f"| 4 | determinate packings (dim S = 0, whole problem) at large mu | {per}; "
+            f"{ns} of {len(small)} at 0 < mu <= 0.01 | **{verdict}** |")
+
+
+def count_rule(rows) -> str:
+    small = [r for r in rows if 0 < r["mu"] <= 0.01]
+    if not small:
+        return "| 5 | 3N_c - 6n ~ N_c at small mu | no packing | **not decidable** |"
+    deg = np.array([r["count_3Nc_minus_6n"] / r["n_contacts"] for r in small])
+    dim = np.array([r["dim_S"] / r["n_contacts"] for r in small])
+    plates = np.array([r["dim_S"] / r["Nc_minus_2_plates"] for r in small])
+    verdict = "reproduced" if abs(deg.mean() - 1) <= 0.1 else "refuted"
+    return (f"| 5 | 3N_c - 6n ~ N_c and dim S ~ N_c at small mu (0 < mu <= 0.01) | "
+            f"(3N_c - 6n) / N_c = {deg.mean():.3f} ± {deg.std(ddof=1):.3f}; dim S / N_c = "
+            f"{dim.mean():.3f} ± {dim.std(ddof=1):.3f}; dim S / (N_c - 2 (N_bottom + N_top)) = "
+            f"{plates.mean():.3f} ± {plates.std(ddof=1):.3f} ({len(small)} packings) | "
+            f"**{verdict}** |")
+
+
+def z_rule(groups) -> str:
+    if 0.0 not in groups or len(groups) < 2:
+        return "| 6 | z -> 6 as mu -> 0, -> 4 at large mu | missing mu | **not decidable** |"
+    top = max(groups)
+    z0 = np.mean([r["z"] for r in groups[0.0]])
+    zt = np.mean([r["z"] for r in groups[top]])
+    verdict = "reproduced" if abs(z0 - 6) <= 0.1 and abs(zt - 4) <= 0.3 else "refuted"
+    return (f"| 6 | z -> 6 as mu -> 0 and falls towards 4 at large mu | z = {z0:.3f} at mu = 0, "
+            f"{zt:.3f} at mu = {top:g} | **{verdict}** |")
+
+
+def figure(groups, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (a, b, c) = plt.subplots(1, 3, figsize=(14, 4.2))
+    mus = [m for m in groups if m > 0]
+    for ax, key, label in ((a, "eta", r"$\eta$ (uniform, whole packing)"),
+                           (b, "z", "z (non-rattlers)")):
+        for m in mus:
+            v = [r[key] for r in groups[m]]
+            ax.plot([m] * len(v), v, ".", color="0.6")
+        st = [mean_se([r[key] for r in groups[m]]) for m in mus]
+        ax.errorbar(mus, [s[0] for s in st], [s[1] if np.isfinite(s[1]) else 0 for s in st],
+                    fmt="o-", color="C0", label="mean ± s.e.")
+        ax.set_xscale("log")
+        ax.set_xlabel(r"friction coefficient $\mu$")
+        ax.set_ylabel(label)
+        ax.legend()
+    if any(r["eta"] > 0 for m in mus for r in groups[m]):
+        a.set_yscale("log")       # determinate packings (eta = 0) are left off this axis
+    if 0.0 in groups:
+        b.axhline(np.mean([r["z"] for r in groups[0.0]]), color="C1", ls="--",
+                  label=r"$\mu = 0$")
+        b.legend()
+    for m, rs in groups.items():
+        c.plot([r["n_contacts"] for r in rs], [r["dim_S"] for r in rs], "o",
+               label=rf"$\mu$ = {m:g}")
+    lim = max(r["n_contacts"] for rs in groups.values() for r in rs)
+    c.plot([0, lim], [0, lim], "k:", label=r"dim S = $N_c$")
+    c.set_xlabel(r"contacts $N_c$ (whole problem)")
+    c.set_ylabel("dim S (exact)")
+    c.legend(fontsize=7, ncol=2)
+    fig.suptitle("Spheres (n = 100, paper3d): the paper's Fig. 1")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    fig.savefig(path.with_suffix(".pdf"))
+    plt.close(fig)
+
+
+def write_report(rows, out: Path) -> None:
+    groups = by_mu(rows)
+    flat = [r for rs in groups.values() for r in rs]
+    verdicts = ["| rule | claim | measured (n = 100 spheres) | verdict |", "|---|---|---|---|",
+                slope_rule(flat), *maximum_rules(groups), determinate_rule(groups),
+                count_rule(flat), z_rule(groups)]
+    figure(groups, out / "fig1.png")
+    (out / "spheres_fig1.md").write_text(
+        "# Spheres' Fig. 1 (n = 100; rules in studies/spheres_fig1.py)\n\n" + table(groups)
+        + "\n" + "\n".join(verdicts) + "\n\n![fig1.png](fig1.png)\n")
