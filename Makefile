@@ -54,7 +54,7 @@ demo: install
 	$(BIN)/forcespace section out/demo.h5 --full -o out/demo_section.png
 
 test: install liggghts
-	$(BIN)/python -m pytest -q -n auto
+	$(BIN)/python -m pytest -q -n logical
 
 bench: install liggghts
 	$(BIN)/python studies/bench.py
