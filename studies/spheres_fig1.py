@@ -41,9 +41,11 @@ Verdict rules (fixed before the run; n = 100 throughout):
 5. *at small mu (0 < mu <= 0.01) dim S ~ N_c and the degree of indeterminacy 3 N_c - 6 n ~
    N_c*: the ratios (mean +- sd); **reproduced** if the mean of (3 N_c - 6 n) / N_c lies
    within 0.1 of 1; dim S / N_c and dim S / (N_c - 2 (N_bottom + N_top)) (the plates'
-   share taken out, ``studies/results/spheres_s_n100``) reported beside.
+   share taken out, ``studies/results/spheres_s_n100``) reported beside; fewer than 3
+   packings: not decidable.
 6. *z -> 6 as mu -> 0 and z falls towards 4 at large mu*: the mean z at mu = 0 within 0.1
-   of 6, and at the largest mu within 0.3 of 4: reproduced, else refuted.
+   of 6, and at the largest mu (>= 3, else not decidable) within 0.3 of 4: reproduced,
+   else refuted.
 """
 from __future__ import annotations
 

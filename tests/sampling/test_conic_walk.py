@@ -7,10 +7,12 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from cases import conic_problem
+from cases import conic_problem, two_row_packing
 from scipy.stats import kstest
 
+from forcespace import full_problem
 from forcespace.cli import main
+from forcespace.errors import InputError
 from forcespace.sampling import conic_walk
 from forcespace.sampling.billiard import BilliardWalk
 from forcespace.sampling.hit_and_run import HitAndRun
@@ -134,3 +136,20 @@ def test_sample_a_sphere_packing_from_the_command_line(tmp_path, capsys):
         assert f.attrs["sampler"] == "billiard"
     assert main(argv[:4] + ["relax"] + argv[5:]) != 0        # polytopes only, one line
     assert "StaticsProblem" in capsys.readouterr().err
+
+
+def test_the_pyramids_cross_check_samples_the_inscribed_pyramid_uniformly():
+    # the cone of the solid cone replaced by an inscribed square pyramid (k = 4): fn is
+    # still distributed as s^3 (cross-sections ~ fn^2), every sample inside the square
+    # |f . e_i| <= mu cos(pi/4) fn, and the square's corners reached (|f_t| -> mu fn)
+    walk = HitAndRun(1200, seed=3, chains=4, thin=5, pyramids=4).compute(solid_cone())
+    X = walk.ensemble.samples
+    assert walk.params["pyramids"] == 4 and walk.ensemble.violations.max() <= 1e-9
+    assert kstest(X[:, 0], lambda s: np.clip(s, 0, 1) ** 3).pvalue > 1e-3
+    theta = np.pi / 4 + np.pi / 2 * np.arange(4)            # the centre's f_t is 0: a = pi/4 + ..
+    edges = X[:, 1:3] @ np.array([np.cos(theta), np.sin(theta)])
+    assert (edges / (MU * np.cos(np.pi / 4) * X[:, [0]])).max() <= 1 + 1e-9
+    q = np.hypot(X[:, 1], X[:, 2]) / (MU * X[:, 0])
+    assert 0.9 < q.max() <= 1 + 1e-9
+    with pytest.raises(InputError, match="spheres only"):
+        HitAndRun(10, pyramids=4).compute(full_problem(two_row_packing()))

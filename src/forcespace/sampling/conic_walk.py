@@ -287,6 +287,32 @@ def conic_frame(problem, analysis=None):
     return Frame(xc, N, H0, s0, line, an, 0.0), cone, problem.mu[cone].astype(float), line
 
 
+def pyramid_frame(problem, k: int, analysis=None) -> Frame:
+    """The polytope of the cross-check by pyramids as a frame of the polytope walks: S with
+    every fully entered cone replaced by its inscribed k-sided pyramid
+    (:func:`forcespace.space.conic.pyramid_rows`' rows, cos(a_i) f1 + sin(a_i) f2 <=
+    mu cos(pi / k) fn, turned so that a vertex lies along the centre's f_t: a contact
+    whose centre is near its cone's surface stays inside its pyramid), in the conic S's
+    affine hull, recentred at the Chebyshev centre of the pyramids (NumericalError without
+    a point strictly inside them). free: the rows, pyramids' first, then the fn >= 0 of
+    the line contacts."""
+    fr, cone, mu, line = conic_frame(problem, analysis)
+    xc = fr.xc.reshape(-1, 3)[cone]
+    a = (np.arctan2(xc[:, 2], xc[:, 1])[:, None] + np.pi / k
+         + 2 * np.pi * np.arange(k) / k).ravel()
+    rows = np.column_stack([-np.repeat(mu, k) * np.cos(np.pi / k), np.cos(a), np.sin(a)])
+    cols = 3 * np.repeat(cone, k)[:, None] + np.arange(3)
+    H = np.vstack([np.einsum("rc,rcd->rd", rows, fr.N[cols]), fr.H0])
+    s = np.concatenate([-(rows * fr.xc[cols]).sum(1), fr.s0])
+    ball = inner_ball(H, s, problem.force_scale)
+    if ball is None or not ball[1] > config.SAMPLE_VIOLATION * problem.force_scale:
+        raise NumericalError(f"the inscribed {k}-sided pyramids leave no point strictly "
+                             "inside S's affine hull")
+    y = ball[0]
+    return Frame(fr.xc + fr.N @ y, fr.N, H, s - H @ y, np.arange(H.shape[0]), fr.analysis,
+                 0.0)
+
+
 def pyramid_rounding(fr: Frame, cone, problem, progress: bool = False, method=None):
     """(y0 (d,), L (d, d), info) in units of <Fn>: the inscribed ellipsoid of the polytope
     {y : the k-sided pyramids circumscribed about the ``cone`` contacts' cones, fn >= 0 of

@@ -380,7 +380,8 @@ class FrameSampler(Sampler):
         resumed when it continues this run); ``analysis``: its ForceSpace, if computed."""
         t0, c0 = time.perf_counter(), time.process_time()
         Walk = self.walk_for(problem)
-        problem = problem.check(type(self).__name__) if Walk is self.ConicWalk \
+        problem = problem.check(type(self).__name__) \
+            if isinstance(problem, SphereStaticsProblem) \
             else checked_problem(problem, type(self).__name__)
         walk = Walk(problem, self.options, analysis, self.progress)
         stop = TimedStop(self.n, self.max_seconds, self.target_ess, walk.params["chains"],

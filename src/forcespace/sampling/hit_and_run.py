@@ -46,7 +46,7 @@ from ..errors import InputError, NumericalError, require_int
 from ..kernels import kernel
 from ..progress import progress as progress_bar
 from ..streams import chain_states
-from .conic_walk import ConicHitAndRunWalk
+from .conic_walk import ConicHitAndRunWalk, pyramid_frame
 from .driver import FrameSampler
 from .frame import FrameWalk
 from .rounding import mve_rounding
@@ -261,6 +261,22 @@ class HitAndRunFrameWalk(FrameWalk):
         return {"steps_per_sample": self.params["thin"]}
 
 
+class PyramidHitAndRunWalk(HitAndRunFrameWalk):
+    """Hit-and-run (the polytopes' walk, rounding and kernel) on S of spheres with every
+    cone replaced by its inscribed k-sided pyramid
+    (:func:`~forcespace.sampling.conic_walk.pyramid_frame`): the cross-check by pyramids.
+    Its samples lie in S (the pyramids are inside the cones)."""
+
+    def __init__(self, problem, options: dict, analysis, progress: bool):
+        options = dict(options)
+        self.sides = int(options.pop("pyramids"))
+        super().__init__(problem, options, analysis, progress)
+        self.params["pyramids"] = self.sides
+
+    def make_frame(self, problem, analysis):
+        return pyramid_frame(problem, self.sides, analysis)
+
+
 class HitAndRun(FrameSampler):
     """Uniform samples of S by coordinate hit-and-run (compute object).
 
@@ -277,17 +293,33 @@ class HitAndRun(FrameSampler):
     ``frame_equality_floor``. A sphere problem (:mod:`forcespace.model.sphere_problem`)
     is sampled with exact chords through its cones
     (:class:`~forcespace.sampling.conic_walk.ConicHitAndRunWalk`; rounding fit to
-    inscribed pyramids).
+    circumscribed pyramids); with ``pyramids`` k, the cones replaced by inscribed k-sided
+    pyramids instead (:class:`PyramidHitAndRunWalk`, the cross-check).
     """
 
     Walk = HitAndRunFrameWalk
     ConicWalk = ConicHitAndRunWalk
 
+    def walk_for(self, problem):
+        """With ``pyramids`` k: the pyramids' polytope walk on S of spheres."""
+        walk = super().walk_for(problem)
+        if self.options.get("pyramids") is None:
+            self.options.pop("pyramids", None)
+            return walk
+        if walk is not self.ConicWalk:
+            raise InputError("HitAndRun", "pyramids", "applies to S of spheres only",
+                             got=self.options["pyramids"])
+        return PyramidHitAndRunWalk
+
     def __init__(self, n: int = 100, seed: int = 0, chains: int | None = None,
                  thin: int | None = None, burn_in: int | None = None,
                  direction: str | None = None, max_seconds: float | None = None,
                  checkpoint_every: int = 10, progress: bool = False,
-                 target_ess: float | None = None):
+                 target_ess: float | None = None, pyramids: int | None = None):
         check_options(n, chains, thin, burn_in, direction, checkpoint_every)
+        if pyramids is not None:
+            require_int("HitAndRun", "pyramids", pyramids, 3, "sides of the inscribed "
+                        "pyramids", 4096)
         super().__init__(n, seed, max_seconds, checkpoint_every, progress, target_ess,
-                         chains=chains, thin=thin, burn_in=burn_in, direction=direction)
+                         chains=chains, thin=thin, burn_in=burn_in, direction=direction,
+                         pyramids=pyramids)
