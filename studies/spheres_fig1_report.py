@@ -168,13 +168,16 @@ def figure(groups, path: Path) -> None:
         b.axhline(np.mean([r["z"] for r in groups[0.0]]), color="C1", ls="--",
                   label=r"$\mu = 0$")
         b.legend()
-    for m, rs in groups.items():
-        c.plot([r["n_contacts"] for r in rs], [r["dim_S"] for r in rs], "o",
+    for k, (m, rs) in enumerate(groups.items()):
+        c.plot([r["n_contacts"] for r in rs], [r["dim_S"] for r in rs], "o", color=f"C{k}",
                label=rf"$\mu$ = {m:g}")
+        c.plot([r["n_contacts"] for r in rs], [r["count_3Nc_minus_6n"] for r in rs], "o",
+               mfc="none", color=f"C{k}")
+    c.plot([], [], "o", mfc="none", color="0.3", label=r"$3N_c - 6n$ (open)")
     lim = max(r["n_contacts"] for rs in groups.values() for r in rs)
     c.plot([0, lim], [0, lim], "k:", label=r"dim S = $N_c$")
     c.set_xlabel(r"contacts $N_c$ (whole problem)")
-    c.set_ylabel("dim S (exact)")
+    c.set_ylabel(r"dim S (exact, filled); $3N_c - 6n$ (open)")
     c.legend(fontsize=7, ncol=2)
     fig.suptitle("Spheres (n = 100, paper3d): the paper's Fig. 1")
     fig.tight_layout()

@@ -47,7 +47,7 @@ from ..space.lp import inner_ball
 from ..streams import chain_states
 from .frame import Frame, FrameWalk, sampled_analysis
 from .rounding import mve_rounding
-from .xoshiro import normal, uniform
+from .xoshiro import uniform, unit_direction
 
 PYRAMID_SIDES = 16     # sides of the circumscribed pyramids the rounding is fit to
 CONE_REFRESH = 4096    # [steps] x = xc + T w recomputed exactly (incremental x drifts ~eps sqrt n)
@@ -135,13 +135,7 @@ def conic_har_steps(T, xc, cone, mu, line, w, state, n_steps, coordinate):
             c = min(int(uniform(state) * d), d - 1)
             q = T[:, c]                     # a column: contiguous in Fortran order
         else:
-            nrm = 0.0
-            for i in range(d):
-                u[i] = normal(state)
-                nrm += u[i] * u[i]
-            nrm = np.sqrt(nrm)
-            for i in range(d):
-                u[i] /= nrm
+            unit_direction(state, u)
             for r in range(n3):
                 acc = 0.0
                 for i in range(d):
@@ -222,15 +216,8 @@ def conic_billiard_steps(T, xc, cone, mu, line, w, state, n_traj, tau, max_refl,
     n3, d = T.shape
     v, w0, q = np.zeros(d), np.zeros(d), np.zeros(n3)
     for _ in range(n_traj):
-        nrm = 0.0
-        for i in range(d):
-            v[i] = normal(state)
-            nrm += v[i] * v[i]
-            w0[i] = w[i]
-        nrm = np.sqrt(nrm)
-        for i in range(d):
-            v[i] /= nrm
-        left = tau * nrm / np.sqrt(d)
+        w0[:] = w
+        left = tau * unit_direction(state, v) / np.sqrt(d)
         x = xc + T @ w
         q[:] = T @ v
         refl = 0

@@ -48,6 +48,20 @@ def normal(s):
 
 
 @kernel
+def unit_direction(s, u):
+    """Fill ``u`` (d,) with a direction uniform on the unit sphere (d normals from state s,
+    one at a time, normalised); returns the normals' length |g| (chi with d degrees)."""
+    nrm = 0.0
+    for i in range(u.shape[0]):
+        u[i] = normal(s)
+        nrm += u[i] * u[i]
+    nrm = np.sqrt(nrm)
+    for i in range(u.shape[0]):
+        u[i] /= nrm
+    return nrm
+
+
+@kernel
 def normals(s, out):
     """Fill ``out`` (n,) with independent standard normals (Box-Muller, both of each
     pair) from state s."""
