@@ -1,4 +1,6 @@
-"""Hit-and-run on S of spheres: a convex set with curved faces (the Coulomb cones).
+"""Uniform walks on S of spheres, a convex set with curved faces (the Coulomb cones):
+hit-and-run with exact chords, the billiard walk with reflections off the cones, and the
+polytope walk on inscribed pyramids (the cross-check).
 
 S in its affine hull: x = xc + N y (:func:`forcespace.space.conic.analyze_conic`'s hull and
 certified centre), rounded (:func:`pyramid_rounding`) to x = x_centre + T w; a chain moves
@@ -28,6 +30,20 @@ via :class:`~forcespace.sampling.hit_and_run.HitAndRun`): files, resume, diagnos
 progress as for disks. The chain state is w and the xoshiro256** state, as for disks; x is
 recomputed from w at the start of every call of the kernel (and every
 ``CONE_REFRESH`` steps), so a resumed run continues bit for bit.
+
+The billiard walk (:class:`ConicBilliardWalk`, :func:`conic_billiard_steps`) moves in the
+same rounded frame: a velocity uniform on the unit sphere of w, a path of length
+tau |g| / sqrt(d) (reflective HMC), the first hit of each straight segment exact (the same
+quadratic per cone; fn >= 0 of the line contacts), and a specular reflection off the
+surface hit, by its normal at the hit point (cone: (-mu, f_t / |f_t|) in (fn, f1, f2),
+mapped to w by T^T); a trajectory with more than ``max_refl`` reflections is discarded.
+Its invariance is the polytopes' argument (:mod:`forcespace.sampling.billiard`): the flow
+between reflections is a translation and a reflection an isometry of the velocity off a
+C^1 surface, both volume preserving and reversible.
+
+:func:`pyramid_frame` is the cross-check: S with every cone replaced by its inscribed
+k-sided pyramid, a polytope for the disks' hit-and-run
+(:class:`~forcespace.sampling.hit_and_run.PyramidHitAndRunWalk`).
 
 Units: x [F0]; t in F0 per unit of the direction; y, w as in :mod:`forcespace.sampling.frame`.
 """
