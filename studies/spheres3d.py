@@ -16,8 +16,11 @@ the top plate, no gravity; then the static solve to residual <= 1e-10). Each is 
 to ``OUT/packings/mu{MU}_s{SEED}.h5`` with its compression checkpoint beside it while it
 runs, so a stopped study resumes where it was (rerun the same command); finished packings
 are skipped. ``OUT/rows.jsonl`` holds one row per packing, ``OUT/spheres3d.md`` the table
-(mean and standard deviation over the seeds of each mu; rattlers excluded from z, the
-convention of ``forcespace info``: a rattler carries no force-bearing contact).
+(mean and standard error over the seeds of each mu; rattlers excluded from z, the
+convention of ``forcespace info``: a rattler carries no force-bearing contact), and
+``OUT/verdicts.json`` / ``OUT/REPORT.md`` the study's verdicts
+(:mod:`forcespace_studies.spheres3d`), which ``forcespace study report`` collects into
+``studies/REPORT.md``. ``--report-only`` rewrites them from the rows without jamming.
 """
 from __future__ import annotations
 
@@ -29,6 +32,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
+
+from forcespace_studies.spheres3d import summarize, table
 
 
 def jam_one(mu: float, seed: int, n: int, out: str, scene_name: str = "paper3d") -> dict:
@@ -63,28 +68,6 @@ def jam_one(mu: float, seed: int, n: int, out: str, scene_name: str = "paper3d")
             "scene": p.scene_name, "jam_end": p.meta.get("jam_end", ""),
             "static_network": p.meta.get("static_network", ""),
             "file": str(path.relative_to(Path(out)))}
-
-
-def table(rows) -> str:
-    """The markdown table: one line per mu (mean +- standard deviation over seeds)."""
-    head = ("| μ | seeds | n | z (non-rattlers) | packing fraction φ | rattler fraction | "
-            "largest static residual [⟨Fn⟩] | largest Coulomb excess [⟨Fn⟩] | CPU s per jam |\n"
-            "|---|---|---|---|---|---|---|---|---|\n")
-    lines = []
-    rows = list({(r["mu"], r["seed"]): r for r in rows}.values())   # one row per packing
-    for mu in sorted({r["mu"] for r in rows}):
-        rs = [r for r in rows if r["mu"] == mu]
-
-        def ms(key, fmt):
-            v = np.array([r[key] for r in rs], float)
-            sd = v.std(ddof=1) if v.size > 1 else float("nan")
-            return f"{fmt.format(v.mean())} ± {fmt.format(sd)}"
-        lines.append(f"| {mu:g} | {len(rs)} | {rs[0]['n']} | {ms('z', '{:.3f}')} | "
-                     f"{ms('packing_fraction', '{:.4f}')} | {ms('rattler_fraction', '{:.3f}')} | "
-                     f"{max(r['residual'] for r in rs):.1e} | "
-                     f"{max(0.0, max(r['coulomb_violation'] for r in rs)):.1e} | "
-                     f"{np.median([r['cpu_seconds'] for r in rs]):.0f} (median) |")
-    return head + "\n".join(lines) + "\n"
 
 
 def validation(rows, ref_rows) -> str:
@@ -124,6 +107,9 @@ def main(argv=None) -> int:
     ap.add_argument("--scene", default="paper3d",
                     help="the bundled scene (paper3d, or paper3d_certified: the jam ended "
                          "by an exact static certificate)")
+    ap.add_argument("--report-only", action="store_true",
+                    help="jam nothing: write the table, verdicts.json and REPORT.md of the "
+                         "rows already in OUT")
     ap.add_argument("--reference", default=None,
                     help="a finished study directory (its rows.jsonl) to compare with: "
                          "writes OUT/validation.md and does not jam")
@@ -140,6 +126,10 @@ def main(argv=None) -> int:
     rows_file = out / "rows.jsonl"
     rows = [json.loads(ln) for ln in rows_file.read_text().splitlines()] \
         if rows_file.is_file() else []
+    if args.report_only:
+        summarize(rows, out, args.scene)
+        print(table(rows))
+        return 0
     done = {(r["mu"], r["seed"]) for r in rows}
     todo = [(mu, seed) for seed in args.seeds for mu in args.mu if (mu, seed) not in done]
     print(f"{len(todo)} packings to jam ({len(done)} done)", file=sys.stderr, flush=True)
@@ -154,9 +144,10 @@ def main(argv=None) -> int:
             print(f"mu {row['mu']:g} seed {row['seed']}: z {row['z']:.3f}, phi "
                   f"{row['packing_fraction']:.4f}, residual {row['residual']:.1e}, "
                   f"{row['cpu_seconds']:.0f} CPU s", file=sys.stderr, flush=True)
-            (out / "spheres3d.md").write_text(table(rows))
-    (out / "spheres3d.md").write_text(table(rows))
-    print(table(rows))
+            summarize(rows, out, args.scene)
+    if rows:
+        summarize(rows, out, args.scene)
+        print(table(rows))
     return 0
 
 

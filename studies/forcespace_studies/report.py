@@ -363,7 +363,10 @@ def _minutes(seconds: float) -> str:
 
 def _time_text(doc: dict) -> str:
     """ "W worker-minutes of tasks" (wall), with the CPU minutes of those that recorded
-    them: of all, or "C CPU-minutes on K of them"."""
+    them: of all, or "C CPU-minutes on K of them"; a directory its own script made
+    (no task files) says so."""
+    if not doc.get("tasks_done") and not doc.get("worker_seconds"):
+        return "made by its own script, not the study runner: no task times"
     text = f"{_minutes(doc['worker_seconds'])} worker-minutes of tasks"
     k, done = doc.get("cpu_tasks") or 0, doc.get("tasks_done")
     if k:

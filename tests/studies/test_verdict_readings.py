@@ -282,3 +282,36 @@ def test_a_summary_under_the_second_rules_is_marked_until_summarised_again(tmp_p
     report = write_report([tmp_path / "fig1"], tmp_path / "REPORT.md").read_text()
     assert "**refuted (earlier rules)**" in report and "--report-only" in report
     assert "rule 1 (one verdict per sampler)" not in report
+
+
+# ---------------------------------------------------------------------------
+# spheres3d (issue 43): z -> 6 at mu -> 0, falling towards 4 at large mu, static
+# ---------------------------------------------------------------------------
+def _sphere_rows(z_by_mu, residual=1e-12):
+    """Five packings per mu with z = the given mean +- 0.01 (hand-made rows)."""
+    return [{"mu": mu, "seed": s, "n": 500, "z": z + 0.01 * (s - 3) / 2,
+             "packing_fraction": 0.62 - 0.04 * mu, "rattler_fraction": 0.07 + 0.2 * mu,
+             "residual": residual, "coulomb_violation": 0.0, "cpu_seconds": 100.0}
+            for mu, z in z_by_mu.items() for s in range(1, 6)]
+
+
+def test_spheres3d_readings_judge_z_at_both_ends_and_the_static_residual():
+    from forcespace_studies import spheres3d
+
+    def calls(rows):
+        return [v.verdict for v in spheres3d.verdicts(rows)[0]]
+
+    good = {0.0: 5.99, 0.01: 5.85, 0.1: 5.35, 1.0: 4.3}
+    assert calls(_sphere_rows(good)) == ["reproduced", "supported", "supported"]
+    # z at mu = 0 off 6 by more than 0.05 (an isostaticity that fails)
+    assert calls(_sphere_rows({**good, 0.0: 5.9}))[0] == "refuted"
+    # z decreasing but stuck nearer 6 than 4 at mu = 1; z rising with mu
+    assert calls(_sphere_rows({**good, 1.0: 5.2}))[1] == "not supported"
+    assert calls(_sphere_rows({0.0: 4.3, 0.01: 5.35, 0.1: 5.85, 1.0: 5.99}))[1] == \
+        "not supported"
+    # a largest mu below 1 cannot tell "towards 4" from a plateau: not decidable
+    assert calls(_sphere_rows({0.0: 5.99, 0.01: 5.85, 0.1: 5.35}))[1] == "not decidable"
+    # one packing above the static tolerance
+    assert calls(_sphere_rows(good, residual=2e-10))[2] == "not supported"
+    # the table's +- is the standard error over the seeds (sd 0.0079 / sqrt 5)
+    assert "5.990 ± 0.004" in spheres3d.table(_sphere_rows(good))
