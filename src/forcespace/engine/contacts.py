@@ -102,7 +102,13 @@ def detect_kernel(x, y, r, box, margin):
         if count >= 0:
             break
         capacity *= 2
-    nb = n + N_WALL_SLOTS
+    return _sorted_by_key(buf_i, buf_f, count, n + N_WALL_SLOTS)
+
+
+@kernel(inline="always")
+def _sorted_by_key(buf_i, buf_f, count, nb):
+    """The first ``count`` rows of the detection buffers (either dimension), sorted by
+    the contact key a * nb + b (nb bodies)."""
     keys = np.empty(count, dtype=np.int64)
     for k in range(count):
         keys[k] = buf_i[k, 0] * nb + buf_i[k, 1]
@@ -124,6 +130,27 @@ def _put(buf_i, buf_f, count, a, b, nx, ny, gap, image):
     return count + 1
 
 
+@kernel(inline="always")
+def _columns(c, nc, periodic, out):
+    """The distinct cells c-1, c, c+1 along an axis of ``nc`` cells (wrapped when
+    ``periodic``, else clipped) into ``out`` (3,); their number. Both dimensions."""
+    k = 0
+    for d in range(-1, 2):
+        j = c + d
+        if periodic:
+            j = j % nc
+        elif j < 0 or j >= nc:
+            continue
+        dup = False
+        for q in range(k):
+            if out[q] == j:
+                dup = True
+        if not dup:
+            out[k] = j
+            k += 1
+    return k
+
+
 @kernel
 def _fill(x, y, r, box, margin, grid, buf_i, buf_f):
     """Write all contacts into the buffers (Nc rows of ``buf_i``, ``buf_f`` as returned by
@@ -135,21 +162,7 @@ def _fill(x, y, r, box, margin, grid, buf_i, buf_f):
     count = 0
     cols = np.empty(3, dtype=np.int64)
     for i in range(n):
-        # distinct neighbour columns
-        ncol = 0
-        for d in range(-1, 2):
-            jx = cix[i] + d
-            if periodic:
-                jx = jx % ncx
-            elif jx < 0 or jx >= ncx:
-                continue
-            dup = False
-            for q in range(ncol):
-                if cols[q] == jx:
-                    dup = True
-            if not dup:
-                cols[ncol] = jx
-                ncol += 1
+        ncol = _columns(cix[i], ncx, periodic, cols)     # distinct neighbour columns
         for dy in range(-1, 2):
             jy = ciy[i] + dy
             if jy < 0 or jy >= ncy:
@@ -270,12 +283,7 @@ def detect3_kernel(pos, r, box, margin):
         if count >= 0:
             break
         capacity *= 2
-    nb = n + N_WALL_SLOTS
-    keys = np.empty(count, dtype=np.int64)
-    for k in range(count):
-        keys[k] = buf_i[k, 0] * nb + buf_i[k, 1]
-    order = np.argsort(keys)
-    return buf_i[:count][order], buf_f[:count][order]
+    return _sorted_by_key(buf_i, buf_f, count, n + N_WALL_SLOTS)
 
 
 @kernel(inline="always")
@@ -293,27 +301,6 @@ def _put3(buf_i, buf_f, count, a, b, image_x, image_y, d, gap):
     buf_f[count, 2] = d[2]
     buf_f[count, 3] = gap
     return count + 1
-
-
-@kernel(inline="always")
-def _columns(c, nc, periodic, out):
-    """The distinct cells c-1, c, c+1 along an axis of ``nc`` cells into ``out`` (3,);
-    their number."""
-    k = 0
-    for d in range(-1, 2):
-        j = c + d
-        if periodic:
-            j = j % nc
-        elif j < 0 or j >= nc:
-            continue
-        dup = False
-        for q in range(k):
-            if out[q] == j:
-                dup = True
-        if not dup:
-            out[k] = j
-            k += 1
-    return k
 
 
 @kernel

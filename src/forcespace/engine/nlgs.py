@@ -15,7 +15,13 @@ without this contact's own force and g+ = max(gap, 0),
 tangential updates so that this is checkable.
 
 Spheres (3-D): :func:`solve3` and :func:`add_contact_velocities3`, the same update with
-a tangential 2-vector projected onto the Coulomb disc (the comment block below).
+a tangential 2-vector projected onto the Coulomb disc (the comment block below). Shared
+by both dimensions (dimension as data): the sweep loop with its orders, over-relaxation
+and convergence test (:func:`iterate_kernel`) and the contact records' scalars
+(:func:`contact_scalars`). Twins where the physics or the layout differs: the effective
+masses (one tangent direction in 2-D, the tangent plane's mean in 3-D), the sweeps (a
+scalar R_t clipped to [-mu R_n, mu R_n] against a 3-vector projected on the disc, on
+body records of 8 and 12 fields).
 """
 from __future__ import annotations
 
@@ -149,11 +155,39 @@ def velocities_kernel(c, rn, rt, m, dt):
 
 # Layout of the solver's working copies (one record per contact and per body, so that an
 # update touches two body records and one or two contact cache lines):
-# contact record (Nc, 16): the normal update reads the first 8 (one 64-byte line)
+# contact record (Nc, 16): the normal update reads the first 8 (one 64-byte line); in
+# both dimensions the normal's d components come first, then the same scalars in the same
+# order (:func:`contact_scalars` writes them for both)
 _EX, _EY, _CN, _IMN, _GP, _GPDT, _MU, _CT = 0, 1, 2, 3, 4, 5, 6, 7
 _IMT, _RA, _RB, _DTRA, _DTRB = 8, 9, 10, 11, 12
 # body record (nb, 8): velocities, then inverse masses
 _VX, _VY, _W, _IMX, _IMY, _II = 0, 1, 2, 3, 4, 5
+
+
+@kernel(inline="always")
+def contact_scalars(c, mn, mt, s, pairs, rec, first):
+    """Body pairs (Nc, 2) and the scalar part of the solver's contact records (Nc, 16),
+    the same in both dimensions after the normal's d components (``first`` = d): m_n/dt,
+    1/m_n, the corrected gap g+ and g+/dt, mu, m_t/dt, 1/m_t, ra, rb, dt*ra, dt*rb. c: a
+    Contacts or Contacts3 record; mn, mt (Nc,) the effective masses; s: SweepSettings."""
+    dt = s.dt
+    for k in range(mn.shape[0]):
+        pairs[k, 0] = c.a[k]
+        pairs[k, 1] = c.b[k]
+        rec[k, first] = mn[k] / dt
+        rec[k, first + 1] = 1.0 / mn[k] if mn[k] > 0.0 else 0.0
+        gp = c.gap[k]
+        if gp < 0.0:
+            gp = s.overlap_correction * (gp + s.overlap_slop) if gp < -s.overlap_slop else 0.0
+        rec[k, first + 2] = gp
+        rec[k, first + 3] = gp / dt
+        rec[k, first + 4] = c.mu[k]
+        rec[k, first + 5] = mt[k] / dt
+        rec[k, first + 6] = 1.0 / mt[k] if mt[k] > 0.0 else 0.0
+        rec[k, first + 7] = c.ra[k]
+        rec[k, first + 8] = c.rb[k]
+        rec[k, first + 9] = dt * c.ra[k]
+        rec[k, first + 10] = dt * c.rb[k]
 
 
 @kernel
@@ -164,28 +198,12 @@ def records_kernel(c, m, s):
     values are those the update computed in place before (bit for bit)."""
     mn, mt = masses_kernel(c, m)
     nc = mn.shape[0]
-    dt = s.dt
     pairs = np.empty((nc, 2), np.int64)
     rec = np.zeros((nc, 16))
     for k in range(nc):
-        pairs[k, 0] = c.a[k]
-        pairs[k, 1] = c.b[k]
         rec[k, _EX] = c.nx[k]
         rec[k, _EY] = c.ny[k]
-        rec[k, _CN] = mn[k] / dt
-        rec[k, _IMN] = 1.0 / mn[k] if mn[k] > 0.0 else 0.0
-        gp = c.gap[k]
-        if gp < 0.0:
-            gp = s.overlap_correction * (gp + s.overlap_slop) if gp < -s.overlap_slop else 0.0
-        rec[k, _GP] = gp
-        rec[k, _GPDT] = gp / dt
-        rec[k, _MU] = c.mu[k]
-        rec[k, _CT] = mt[k] / dt
-        rec[k, _IMT] = 1.0 / mt[k] if mt[k] > 0.0 else 0.0
-        rec[k, _RA] = c.ra[k]
-        rec[k, _RB] = c.rb[k]
-        rec[k, _DTRA] = dt * c.ra[k]
-        rec[k, _DTRB] = dt * c.rb[k]
+    contact_scalars(c, mn, mt, s, pairs, rec, _CN)
     nb = m.vx.shape[0]
     body = np.zeros((nb, 8))
     for i in range(nb):
@@ -296,11 +314,17 @@ def sweep_kernel(pairs, rec, body, rn, rt, order, runs, block, dt, relaxation):
 
 
 @kernel(inline="always")
-def _exact_sum(rn, rt):
-    """sum_k |rn_k| + |rt_k| in index order (the convergence test's denominator)."""
+def _exact_sum(rn, rt, tangential):
+    """sum_k |rn_k| + |R_t,k| in index order (the convergence test's denominator); rt
+    (tangential * Nc,): one component per contact in 2-D, three (|R_t| Euclidean) in 3-D."""
     rsum = 0.0
-    for k in range(rn.shape[0]):
-        rsum += abs(rn[k]) + abs(rt[k])
+    if tangential == 1:
+        for k in range(rn.shape[0]):
+            rsum += abs(rn[k]) + abs(rt[k])
+    else:
+        for k in range(rn.shape[0]):
+            t = 3 * k
+            rsum += abs(rn[k]) + np.sqrt(rt[t] ** 2 + rt[t + 1] ** 2 + rt[t + 2] ** 2)
     return rsum
 
 
@@ -334,7 +358,26 @@ def solve_kernel(c, m, rn, rt, s, seed):
     the velocities are copied back at the end. Returns SweepStats.
     """
     pairs, rec, body = records_kernel(c, m, s)
-    flat_pairs, flat_rec, flat_body = pairs.ravel(), rec.ravel(), body.ravel()
+    stats = iterate_kernel(pairs.ravel(), rec.ravel(), body.ravel(), rn, rt, s, seed, 1)
+    for i in range(m.vx.shape[0]):
+        m.vx[i] = body[i, _VX]
+        m.vy[i] = body[i, _VY]
+        m.w[i] = body[i, _W]
+    return stats
+
+
+@kernel
+def iterate_kernel(pairs, rec, body, rn, rt, s, seed, tangential):
+    """The sweeps of :func:`solve_kernel` (2-D, ``tangential`` = 1) and
+    :func:`solve3_kernel` (3-D, ``tangential`` = 3), dimension as data: sweep orders,
+    over-relaxation and its fall-back, convergence test. pairs (2 Nc,) int64, rec (16 Nc,)
+    and body (flattened records of :func:`records_kernel` / :func:`records3_kernel`), rn
+    (Nc,) and rt (tangential * Nc,) [sigma] updated in place; s: SweepSettings; seed: the
+    sweep order's seed. Returns SweepStats.
+
+    2-D carries sum |R| through the sweeps (the exact sum only where the test might pass);
+    3-D sums it exactly after every sweep (carrying |R_t| would cost two square roots per
+    tangential update, more than the exact pass)."""
     nc = rn.shape[0]
     block = s.block
     relaxation = s.relaxation
@@ -346,7 +389,7 @@ def solve_kernel(c, m, rn, rt, s, seed):
     n_norm = 0
     n_tang = 0
     sweeps = 0
-    running = _exact_sum(rn, rt)    # sum |R|, carried by the sweeps' changes
+    running = _exact_sum(rn, rt, tangential)   # sum |R|, carried by the sweeps' changes
     bound = 0.0                     # magnitudes added to ``running`` since it was exact
     for sweep in range(s.max_sweeps):
         sweeps = sweep + 1
@@ -356,29 +399,32 @@ def solve_kernel(c, m, rn, rt, s, seed):
             state = shuffle(runs, runs.shape[0], state)
         else:
             state = shuffle(order, nc, state)
-        dsum, change, size, nn, nt = sweep_kernel(flat_pairs, flat_rec, flat_body, rn, rt,
-                                                  order, runs, block, s.dt, relaxation)
+        if tangential == 1:
+            dsum, change, size, nn, nt = sweep_kernel(pairs, rec, body, rn, rt, order, runs,
+                                                      block, s.dt, relaxation)
+        else:
+            dsum, nn, nt = sweep3_kernel(pairs, rec, body, rn, rt, order, runs, block, s.dt,
+                                         relaxation)
+            change = 0.0
+            size = 0.0
         n_norm += nn
         n_tang += nt
-        running += change
-        bound += size + abs(running)
-        # the exact sum (index order, as always) decides the test wherever the carried
-        # one might not: each of the Nc additions of a sweep, and the exact sum itself,
-        # err by at most 2^-52 of the magnitudes summed (bounded by ``bound``)
-        margin = 4.5e-16 * (nc + 2) * (bound + abs(running))
-        if sweeps < s.max_sweeps and margin < 1e-6 * running \
-                and dsum > s.tol * (running + margin) * (1.0 + 1e-12):
-            continue
-        rsum = _exact_sum(rn, rt)
+        if tangential == 1:
+            running += change
+            bound += size + abs(running)
+            # the exact sum (index order, as always) decides the test wherever the carried
+            # one might not: each of the Nc additions of a sweep, and the exact sum itself,
+            # err by at most 2^-52 of the magnitudes summed (bounded by ``bound``)
+            margin = 4.5e-16 * (nc + 2) * (bound + abs(running))
+            if sweeps < s.max_sweeps and margin < 1e-6 * running \
+                    and dsum > s.tol * (running + margin) * (1.0 + 1e-12):
+                continue
+        rsum = _exact_sum(rn, rt, tangential)
         running = rsum
         bound = 0.0
         rel = dsum / rsum if rsum > 0.0 else (0.0 if dsum == 0.0 else np.inf)
         if rel <= s.tol:
             break
-    for i in range(m.vx.shape[0]):
-        m.vx[i] = body[i, _VX]
-        m.vy[i] = body[i, _VY]
-        m.w[i] = body[i, _W]
     return SweepStats(sweeps, rel, n_norm, n_tang)
 
 
@@ -515,29 +561,12 @@ def records3_kernel(c, m, s):
     body records (nb, 12) (layout above), every per-contact factor precomputed."""
     mn, mt = masses3_kernel(c, m)
     nc = mn.shape[0]
-    dt = s.dt
     pairs = np.empty((nc, 2), np.int64)
     rec = np.zeros((nc, 16))
     for k in range(nc):
-        pairs[k, 0] = c.a[k]
-        pairs[k, 1] = c.b[k]
-        rec[k, _NX3] = c.normal[k, 0]
-        rec[k, _NY3] = c.normal[k, 1]
-        rec[k, _NZ3] = c.normal[k, 2]
-        rec[k, _CN3] = mn[k] / dt
-        rec[k, _IMN3] = 1.0 / mn[k] if mn[k] > 0.0 else 0.0
-        gp = c.gap[k]
-        if gp < 0.0:
-            gp = s.overlap_correction * (gp + s.overlap_slop) if gp < -s.overlap_slop else 0.0
-        rec[k, _GP3] = gp
-        rec[k, _GPDT3] = gp / dt
-        rec[k, _MU3] = c.mu[k]
-        rec[k, _CT3] = mt[k] / dt
-        rec[k, _IMT3] = 1.0 / mt[k] if mt[k] > 0.0 else 0.0
-        rec[k, _RA3] = c.ra[k]
-        rec[k, _RB3] = c.rb[k]
-        rec[k, _DTRA3] = dt * c.ra[k]
-        rec[k, _DTRB3] = dt * c.rb[k]
+        for d in range(3):
+            rec[k, _NX3 + d] = c.normal[k, d]
+    contact_scalars(c, mn, mt, s, pairs, rec, _CN3)
     nb = m.v.shape[0]
     body = np.zeros((nb, _BODY3))
     for i in range(nb):
@@ -674,40 +703,10 @@ def solve3_kernel(c, m, rn, rt, s, seed):
     tol * sum |R| after it, |R| = |rn| + |rt| (Euclidean). Returns SweepStats.
     """
     pairs, rec, body = records3_kernel(c, m, s)
-    flat_pairs, flat_rec, flat_body = pairs.ravel(), rec.ravel(), body.ravel()
-    flat_rt = rt.reshape(-1)
-    nc = rn.shape[0]
-    block = s.block
-    relaxation = s.relaxation
-    fallback = s.max_sweeps // 2 if s.relax_until < 0 else s.relax_until
-    order = np.arange(nc) if block == 0 else np.zeros(0, np.int64)
-    runs = np.arange((nc + block - 1) // block) if block > 0 else np.zeros(0, np.int64)
-    state = order_state(seed)
-    rel = 0.0
-    n_norm = 0
-    n_tang = 0
-    sweeps = 0
-    for sweep in range(s.max_sweeps):
-        sweeps = sweep + 1
-        if sweep == fallback:
-            relaxation = 1.0   # over-relaxation that has not converged: plain Gauss-Seidel
-        if block > 0:
-            state = shuffle(runs, runs.shape[0], state)
-        else:
-            state = shuffle(order, nc, state)
-        dsum, nn, nt = sweep3_kernel(flat_pairs, flat_rec, flat_body, rn, flat_rt, order,
-                                     runs, block, s.dt, relaxation)
-        n_norm += nn
-        n_tang += nt
-        rsum = 0.0
-        for k in range(nc):
-            rsum += abs(rn[k]) + np.sqrt(rt[k, 0] ** 2 + rt[k, 1] ** 2 + rt[k, 2] ** 2)
-        rel = dsum / rsum if rsum > 0.0 else (0.0 if dsum == 0.0 else np.inf)
-        if rel <= s.tol:
-            break
-    nb = m.v.shape[0]
-    for i in range(nb):
+    stats = iterate_kernel(pairs.ravel(), rec.ravel(), body.ravel(), rn, rt.reshape(-1), s,
+                           seed, 3)
+    for i in range(m.v.shape[0]):
         for d in range(3):
             m.v[i, d] = body[i, _V3 + d]
             m.w[i, d] = body[i, _W3 + d]
-    return SweepStats(sweeps, rel, n_norm, n_tang)
+    return stats

@@ -26,7 +26,7 @@ from .contacts import detect_contacts, detect_contacts3
 from .frozen import FrozenContacts, FrozenContacts3, relax
 from .interrupts import InterruptFlag
 from .records import ContactForces, Contacts, Contacts3
-from .step import contact_list, contact_list3, warm_start, warm_start3
+from .step import contact_list, warm_start, warm_start3
 
 
 class ResidualProgress:
@@ -136,7 +136,7 @@ def frozen_spheres(setup: Setup, bodies: SphereBodies):
     n = bodies.n
     ints, floats = detect_contacts3(bodies.pos, bodies.r, kernel_box(setup.boundary),
                                     setup.jamming.contact_gap_tol)
-    c = contact_list3(ints, floats, bodies.r, setup.physics.mu, setup.physics.plate_mu)
+    c = contact_list(ints, floats, bodies.r, setup.physics.mu, setup.physics.plate_mu)
     _check_none_loose(bodies.load[:n] != 0, c, "sphere")
     if bodies.contacts is not None:  # start from the forces the dynamics ended with
         rn, rt = warm_start3(c.keys, c.normal, bodies.contacts)

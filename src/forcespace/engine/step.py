@@ -13,7 +13,11 @@ the scene asks for: ``fy_ext`` holds gravity and the top-plate load.
 
 Spheres (3-D): :func:`run_steps3`, the same step on the 3-D records (a periodic box in x
 and y, plates normal to z) with the kernels of :mod:`~forcespace.engine.contacts` and
-:mod:`~forcespace.engine.nlgs` for spheres.
+:mod:`~forcespace.engine.nlgs` for spheres. Shared by both: the step's solver settings
+(:func:`step_sweep_settings`), the solves' tally (:func:`tally`, :func:`step_stats`) and
+:func:`contact_list` (the dimension read from the detection's columns); the body layouts
+differ (x, y, theta arrays against (n, 3) positions and rotation vectors), so the step
+kernels, warm starts and moves stay twins.
 """
 from __future__ import annotations
 
@@ -91,14 +95,55 @@ def contacts_kernel(ints, floats, r, mu_disk, mu_wall):
     return Contacts(a, b, nx, ny, gap, ra, rb, mu, keys)
 
 
-def contact_list(ints, floats, r, mu_disk: float, mu_wall: float) -> Contacts:
-    """The Contacts record of a detection result (see :func:`contacts_kernel`)."""
+def contact_list(ints, floats, r, mu_disk: float, mu_wall: float):
+    """The contact record of a detection result, its dimension read from the columns:
+    (Nc, 3) each from :func:`~forcespace.engine.contacts.detect_contacts` -> Contacts
+    (:func:`contacts_kernel`), (Nc, 4) each from
+    :func:`~forcespace.engine.contacts.detect_contacts3` -> Contacts3
+    (:func:`contacts3_kernel`)."""
     ints = np.ascontiguousarray(ints, dtype=np.int64)
     floats = np.ascontiguousarray(floats, dtype=float)
-    if ints.ndim != 2 or ints.shape[1] != 3 or floats.shape != ints.shape:
-        raise ValueError("ints and floats must have the same shape (Nc, 3)")
-    return contacts_kernel(ints, floats, np.ascontiguousarray(r, dtype=float),
-                           float(mu_disk), float(mu_wall))
+    if ints.ndim != 2 or ints.shape[1] not in (3, 4) or floats.shape != ints.shape:
+        raise ValueError("ints and floats must have the same shape, (Nc, 3) for disks or "
+                         "(Nc, 4) for spheres")
+    make = contacts_kernel if ints.shape[1] == 3 else contacts3_kernel
+    return make(ints, floats, np.ascontiguousarray(r, dtype=float), float(mu_disk),
+                float(mu_wall))
+
+
+@kernel
+def step_sweep_settings(step, sweep, moving):
+    """The SweepSettings of one step: ``sweep``, or while the plate moves faster than
+    ``step.moving_speed`` (``moving``) the looser tolerance ``step.tol_moving`` with the
+    cap ``step.sweeps_moving`` (0: ``sweep.max_sweeps``; with a cap, over-relaxation
+    falls back to omega = 1 at half of it)."""
+    if not moving:
+        return sweep
+    cap = step.sweeps_moving if step.sweeps_moving > 0 else sweep.max_sweeps
+    return SweepSettings(sweep.dt, step.tol_moving, cap, sweep.relaxation, sweep.block,
+                         sweep.overlap_correction, sweep.overlap_slop,
+                         sweep.relax_until if step.sweeps_moving <= 0 else -1)
+
+
+@kernel(inline="always")
+def tally(totals, max_rel, st, settings):
+    """Add one solve's SweepStats ``st`` (run with ``settings``) to ``totals`` (5,) int64
+    = (sweeps, largest sweeps of a step, normal updates, tangential updates, steps that
+    hit the sweep cap unconverged); returns the largest relative change so far."""
+    totals[0] += st.sweeps
+    totals[1] = max(totals[1], st.sweeps)
+    totals[2] += st.normal_updates
+    totals[3] += st.tangential_updates
+    if st.sweeps >= settings.max_sweeps and st.relative_change > settings.tol:
+        totals[4] += 1
+    return max(max_rel, st.relative_change)
+
+
+@kernel(inline="always")
+def step_stats(totals, max_rel, max_speed, max_top):
+    """The StepStats of a run of steps from its tally (:func:`tally`) and maxima."""
+    return StepStats(totals[0], totals[1], max_rel, totals[2], totals[3], max_speed,
+                     max_top, totals[4])
 
 
 @kernel
@@ -117,16 +162,12 @@ def steps_kernel(bodies, box, step, sweep, prev, nsteps, seed, step0):
     motion = Motion(vx, vy, w, inv_mx, inv_my, bodies.inv_i)
     n = r.shape[0]
     width, periodic = box.width, box.periodic
-    dt, max_sweeps = sweep.dt, sweep.max_sweeps
+    dt = sweep.dt
     keys, rn, rt = prev.keys, prev.rn, prev.rt
-    sweeps_total = 0
-    sweeps_max = 0
+    totals = np.zeros(5, np.int64)     # the solves' tally (see :func:`tally`)
     max_rel = 0.0
-    n_norm = 0
-    n_tang = 0
     max_speed = 0.0
     max_top = 0.0
-    capped = 0
     nb = n + N_WALL_SLOTS
     mass = np.zeros(nb)
     for i in range(n):
@@ -142,21 +183,9 @@ def steps_kernel(bodies, box, step, sweep, prev, nsteps, seed, step0):
             if fy_ext[i] != 0.0:  # only the forces the scene asks for
                 vy[i] += dt * fy_ext[i] * inv_my[i]
         velocities_kernel(c, rn, rt, motion, dt)
-        settings = sweep
-        if moving:     # the plate moved faster than moving_speed in the last step
-            cap = step.sweeps_moving if step.sweeps_moving > 0 else max_sweeps
-            settings = SweepSettings(dt, step.tol_moving, cap, sweep.relaxation,
-                                     sweep.block, sweep.overlap_correction,
-                                     sweep.overlap_slop,
-                                     sweep.relax_until if step.sweeps_moving <= 0 else -1)
+        settings = step_sweep_settings(step, sweep, moving)
         st = solve_kernel(c, motion, rn, rt, settings, step_seed(seed, step0 + s))
-        sweeps_total += st.sweeps
-        sweeps_max = max(sweeps_max, st.sweeps)
-        max_rel = max(max_rel, st.relative_change)
-        n_norm += st.normal_updates
-        n_tang += st.tangential_updates
-        if st.sweeps >= settings.max_sweeps and st.relative_change > settings.tol:
-            capped += 1
+        max_rel = tally(totals, max_rel, st, settings)
         a, b = c.a, c.b
         # speeds (for the log) of the disks that touch something or feel a body
         # force: a free-flying rattler in zero gravity keeps its speed forever
@@ -193,8 +222,7 @@ def steps_kernel(bodies, box, step, sweep, prev, nsteps, seed, step0):
         y[n + 1] += dt * vy[n + 1]
         max_speed = max(max_speed, vmax)
         max_top = max(max_top, abs(vy[n + 1]))
-    return ContactForces(keys, rn, rt), StepStats(sweeps_total, sweeps_max, max_rel, n_norm,
-                                                  n_tang, max_speed, max_top, capped)
+    return ContactForces(keys, rn, rt), step_stats(totals, max_rel, max_speed, max_top)
 
 
 def body_arrays(bodies) -> BodyArrays:
@@ -308,16 +336,6 @@ def contacts3_kernel(ints, floats, r, mu_disk, mu_wall):
     return Contacts3(a, b, normal, gap, ra, rb, mu, keys)
 
 
-def contact_list3(ints, floats, r, mu_disk: float, mu_wall: float) -> Contacts3:
-    """The Contacts3 record of a 3-D detection result (see :func:`contacts3_kernel`)."""
-    ints = np.ascontiguousarray(ints, dtype=np.int64)
-    floats = np.ascontiguousarray(floats, dtype=float)
-    if ints.ndim != 2 or ints.shape[1] != 4 or floats.shape != ints.shape:
-        raise ValueError("ints and floats must have the same shape (Nc, 4)")
-    return contacts3_kernel(ints, floats, np.ascontiguousarray(r, dtype=float),
-                            float(mu_disk), float(mu_wall))
-
-
 @kernel
 def loaded3_kernel(bodies, c, rn):
     """Mask (nb,) of the spheres that feel an external force or carry a contact force (the
@@ -378,10 +396,9 @@ def steps3_kernel(bodies, box, step, sweep, prev, nsteps, seed, step0):
     motion = Motion3(bodies.v, bodies.w, bodies.inv_m, bodies.inv_i)
     v, f_ext, inv_m = bodies.v, bodies.f_ext, bodies.inv_m
     n = bodies.r.shape[0]
-    dt, max_sweeps = sweep.dt, sweep.max_sweeps
+    dt = sweep.dt
     keys, rn, rt = prev.keys, prev.rn, prev.rt
-    totals = np.zeros(4, np.int64)     # sweeps, normal updates, tangential updates, capped
-    sweeps_max = 0
+    totals = np.zeros(5, np.int64)     # the solves' tally (see :func:`tally`)
     max_rel = 0.0
     max_speed = 0.0
     max_top = 0.0
@@ -396,26 +413,13 @@ def steps3_kernel(bodies, box, step, sweep, prev, nsteps, seed, step0):
                 if f_ext[i, d] != 0.0:  # only the forces the scene asks for
                     v[i, d] += dt * f_ext[i, d] * inv_m[i, d]
         velocities3_kernel(c, rn, rt, motion, dt)
-        settings = sweep
-        if moving:     # the plate moved faster than moving_speed in the last step
-            cap = step.sweeps_moving if step.sweeps_moving > 0 else max_sweeps
-            settings = SweepSettings(dt, step.tol_moving, cap, sweep.relaxation,
-                                     sweep.block, sweep.overlap_correction,
-                                     sweep.overlap_slop,
-                                     sweep.relax_until if step.sweeps_moving <= 0 else -1)
+        settings = step_sweep_settings(step, sweep, moving)
         st = solve3_kernel(c, motion, rn, rt, settings, step_seed(seed, step0 + s))
-        totals[0] += st.sweeps
-        totals[1] += st.normal_updates
-        totals[2] += st.tangential_updates
-        if st.sweeps >= settings.max_sweeps and st.relative_change > settings.tol:
-            totals[3] += 1
-        sweeps_max = max(sweeps_max, st.sweeps)
-        max_rel = max(max_rel, st.relative_change)
+        max_rel = tally(totals, max_rel, st, settings)
         loaded = loaded3_kernel(bodies, c, rn)
         max_speed = max(max_speed, move3_kernel(bodies, box, step, loaded, dt))
         max_top = max(max_top, abs(v[n + 1, 2]))
-    return ContactForces(keys, rn, rt), StepStats(totals[0], sweeps_max, max_rel, totals[1],
-                                                  totals[2], max_speed, max_top, totals[3])
+    return ContactForces(keys, rn, rt), step_stats(totals, max_rel, max_speed, max_top)
 
 
 def body_arrays3(bodies) -> BodyArrays3:
