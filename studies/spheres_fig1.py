@@ -22,7 +22,9 @@ Per packing (one row of ``OUT/fig1_rows.jsonl``, appended as soon as it is done)
   ensemble in ``OUT/packings/ens_mu{MU}_s{SEED}.h5`` (resumable); dim S = 0 gives eta = 0
   exactly; its ESS, R-hat and status are in the row.
 
-Verdict rules (fixed before the run; n = 100 throughout):
+Verdict rules (fixed before the run; n = 100 throughout; amended during the run, before
+any packing above mu = 1 was done: rules 2 and 4 are not decidable while the data end
+below the design's largest mu, 10):
 
 1. *eta grows proportionally to mu at small mu*: the slope of log eta against log mu over
    the packings with mu <= 0.01 and eta > 0, with a 95 % bootstrap interval over packings
