@@ -4,7 +4,7 @@
 # CPU benchmarks against the old engine and pymunk, forcespace_studies.bench_engine, and the
 # exact analysis against the old code, forcespace_studies.bench_analysis, and a measured
 # 1000-particle frame read and checked, forcespace_studies.bench_measured, and the sphere
-# jams at 500 and 2000 spheres with the per-contact update, forcespace_studies.bench_spheres;
+# jam at 500 spheres (--long: 2000) with the per-contact update, forcespace_studies.bench_spheres;
 # the samplers' cost table is `python studies/sampler_cost.py studies/sampler_cost`, hours, see its note);
 # `make studies` runs every study at full size (days on a few cores; resumable: rerun
 # after any interruption; not run by CI) into studies/results/NAME and rebuilds

@@ -1,6 +1,7 @@
 """Sphere benchmarks of issue 43: the CPU seconds of a sphere jam (``paper3d_certified``,
-the jam ended by the exact static certificate) at 500 and 2000 spheres, and the cost of one
-single-contact update, spheres beside disks.
+the jam ended by the exact static certificate) at 500 spheres (``--long`` adds 2000: tens of
+CPU minutes, hours of wall time on a shared machine), and the cost of one single-contact
+update, spheres beside disks.
 
 Jams: per mu and size n (the box scaled as ``--n N --scale-box``: lateral extents by
 (n/500)^(1/3)), seed 1, one subprocess each with one BLAS thread, CPU = user + sys of the
@@ -16,7 +17,7 @@ median over ``--rounds`` rounds (the machine is shared).
 
 Writes (merges) the section ``spheres`` of OUT/bench.json. Usage::
 
-    python -m forcespace_studies.bench_spheres [--sizes 500,2000] [--mus 0.1]
+    python -m forcespace_studies.bench_spheres [--sizes 500] [--long] [--mus 0.1]
         [--disks studies/packings/paper_mu0.1.h5] [--spheres SPHERES.h5] [--out studies/out]
         [--add MU:N:PACKING:CPU_S ...]
 """
@@ -143,7 +144,8 @@ def merge(path: Path, key: str, value) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", default="500,2000")
+    ap.add_argument("--sizes", default="500")
+    ap.add_argument("--long", action="store_true", help="add the 2000-sphere jam")
     ap.add_argument("--mus", default="0.1")
     ap.add_argument("--disks", default=DISKS)
     ap.add_argument("--spheres", default=None,
@@ -164,6 +166,7 @@ def main(argv=None) -> int:
             "cpu_s": float(cpu), "packing": Path(path).name,
             "cpu_source": "recorded from a separate run", **sphere_stats(path)}))
     sizes = [int(s) for s in a.sizes.split(",")] if a.sizes else []
+    sizes += [2000] if a.long and 2000 not in sizes else []
     spheres = a.spheres
     with tempfile.TemporaryDirectory() as tmp:
         for mu in (float(m) for m in a.mus.split(",")):
