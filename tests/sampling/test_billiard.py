@@ -338,3 +338,50 @@ def test_an_ensemble_file_describes_its_frame(cls, tmp_path):
             assert ds.attrs["description"] != name, name
         assert f["setup/T"].attrs["units"] == "F0"
         assert f["setup/s0"].attrs["units"] == "F0"
+
+
+def test_float32_gram_walk_follows_the_float64_walk_and_stays_inside():
+    """K kept in float32 (half the memory): its entries are the float64 ones rounded
+    (relative error <= 2^-24 of |h_i| |h_j|), the hit rows are taken exactly, and the walk
+    from the same state makes the same reflections, ending within 1e-6 of the float64
+    walk, every end point inside the polytope (exact slacks >= 0)."""
+    rng = np.random.default_rng(4)
+    d = 30
+    H = np.ascontiguousarray(np.vstack([np.eye(d), -np.eye(d), rng.normal(size=(140, d))]))
+    s = np.r_[np.ones(2 * d), 3.0 * np.ones(140)]
+    K64, K32 = bw.gram_matrix(H, form="float64"), bw.gram_matrix(H, form="float32")
+    assert K32.dtype == np.float32 and bw.gram_form(K32) == "float32"
+    nrm = np.linalg.norm(H, axis=1)
+    assert np.abs(K32 - K64).max() / nrm.max() ** 2 <= 2.0 ** -24
+    np.testing.assert_allclose(bw.gram_diagonal(H, K32), np.diag(K64), rtol=1e-15)
+    assert bw.gram_diagonal(H, K64).size == 0             # float64: K's own diagonal
+    ends, counts = [], []
+    for K in (K64, K32):
+        walk = bw.Chains(H, s, np.zeros((1, d)), seed_states(5, 1), K)
+        walk.tau = 6.0
+        out = np.zeros((20, d))
+        walk.run(0, 20, out)
+        assert (out @ H.T - s).max() <= 0.0
+        ends.append(out)
+        counts.append(walk.counts[0].copy())
+    assert counts[0][bw.REFL] > 200 and np.array_equal(counts[0][:3], counts[1][:3])
+    assert 0 < np.abs(ends[0] - ends[1]).max() < 1e-6
+
+
+def test_float32_gram_samples_of_a_paper_slice_are_in_S_and_agree():
+    """BilliardWalk(gram="float32") on the paper slice (dim S 48): every sample inside S
+    to config.SAMPLE_VIOLATION, the same reflections as float64 and eta within 1e-9; the
+    default ("auto") keeps K in float64 there."""
+    from paths import PACKINGS
+    from forcespace import read_packing, slice_problem
+
+    prob = slice_problem(read_packing(PACKINGS / "paper_mu0.1.h5"), 28.0)
+    runs = {g: BilliardWalk(300, seed=2, gram=g).compute(prob) for g in (None, "float32")}
+    assert runs[None].walk_info["gram_form"] == "float64"
+    assert runs["float32"].walk_info["gram_form"] == "float32"
+    assert runs["float32"].ensemble.violations.max() <= config.SAMPLE_VIOLATION
+    assert runs[None].counts == runs["float32"].counts
+    e64, e32 = (eta(r.ensemble.samples) for r in runs.values())
+    assert abs(e32 / e64 - 1) < 1e-9
+    with pytest.raises(Exception, match="gram"):
+        BilliardWalk(10, gram="float16")

@@ -148,3 +148,22 @@ def test_varying_contacts_by_few_lps_match_the_full_range_table(name, height, mo
         np.testing.assert_allclose(w[ran], exact[ran], atol=slack)
         assert np.all(exact[~ran] >= w[~ran] - slack) and np.all(w[~ran] > config.VARY_TOL)
         np.testing.assert_array_equal(w > config.VARY_TOL, exact > config.VARY_TOL)
+
+
+def test_an_analysis_without_the_varying_test_gives_the_same_frame():
+    """ForceSpace(varying=False) (the samplers' frame) skips the per-contact LPs: the same
+    dimension, hull and centre, ``varying`` refused, the summary without domains."""
+    from paths import PACKINGS
+    from forcespace.io.packing_file import read_packing
+    from forcespace.sampling.frame import frame
+    prob = slice_problem(read_packing(PACKINGS / "paper_mu0.1.h5"), 28.0)
+    full, lean = ForceSpace().compute(prob), ForceSpace(varying=False).compute(prob)
+    assert lean.success and lean.dim == full.dim == 48
+    np.testing.assert_array_equal(lean.affine_basis, full.affine_basis)
+    np.testing.assert_array_equal(lean.centre, full.centre)
+    with pytest.raises(AttributeError, match="varying=False"):
+        lean.varying
+    assert "n_domains" not in lean.summary() and full.summary()["n_domains"] > 0
+    a, b = frame(prob), frame(prob, full)
+    for x, y in zip(a[:5], b[:5]):
+        np.testing.assert_array_equal(x, y)

@@ -109,13 +109,44 @@ def path_length(state, tau, length_mode, nrm, d):
 
 
 @kernel
-def billiard_walk(H, K, s0, w, slack, state, n_traj, tau, length_mode, max_refl, counts, out):
+def hit_row(H, s0, w, v, j):
+    """Row j's exact slack s0_j - h_j . w and rate h_j . v (O(d), float64): the float32
+    Gram walk's hit facet, taken from the exact values, not from the propagated ones."""
+    hw = 0.0
+    hv = 0.0
+    for i in range(w.shape[0]):
+        hw += H[j, i] * w[i]
+        hv += H[j, i] * v[i]
+    return s0[j] - hw, hv
+
+
+@kernel
+def reflect(v, hj, c):
+    """v -= c h_j in place (the specular turn off facet j, c = 2 h_j.v / |h_j|^2)."""
+    for i in range(v.shape[0]):
+        v[i] -= c * hj[i]
+
+
+@kernel
+def exact_slacks(H, s0, w, slack) -> float:
+    """slack = s0 - H w in place (O(p d)); returns its minimum."""
+    slack[:] = s0 - np.dot(H, w)
+    return np.min(slack) if slack.shape[0] else 0.0
+
+
+@kernel
+def billiard_walk(H, K, s0, w, slack, state, n_traj, tau, length_mode, max_refl, counts, out,
+                  kdiag):
     """Run ``n_traj`` billiard-walk trajectories from w in place (module docstring).
 
     H (p, d) C-contiguous and s0 (p,): the polytope {H w <= s0}; w (d,) a point of it,
     overwritten with the end point; slack (p,) = s0 - H w on entry, kept up to date.
-    K (p, p) = H H^T, or an empty (0, 0) array to compute each needed row H h_j on the
-    fly. state (4,) uint64 xoshiro256** state, advanced in place. tau > 0: length scale
+    K (p, p) = H H^T (float64, or float32: then ``kdiag`` (p,) holds |h_j|^2 in float64),
+    or an empty (0, 0) array to compute each needed row H h_j on the fly. With float32 K
+    (``kdiag`` non-empty) the hit row's slack and rate are recomputed exactly (O(d)), the
+    slacks exactly at every trajectory's end, and a trajectory ending outside the
+    polytope (an exact slack < 0, missed through the float32 rows) is discarded.
+    state (4,) uint64 xoshiro256** state, advanced in place. tau > 0: length scale
     (units of w). length_mode: LENGTH_MODES. max_refl: a trajectory that needs more
     reflections is discarded (the chain stays at its start). counts (4,) int64,
     incremented in place (TRAJ, REFL, DISCARDED, SINCE). out (k, d): w is written to
@@ -124,6 +155,7 @@ def billiard_walk(H, K, s0, w, slack, state, n_traj, tau, length_mode, max_refl,
     p, d = H.shape
     every = max(n_traj // out.shape[0], 1) if out.shape[0] > 0 else n_traj + 1
     use_k = K.shape[0] == p
+    exact = kdiag.shape[0] == p
     v = np.zeros(d)
     w_start = np.zeros(d)
     rate = np.zeros(p)
@@ -136,50 +168,23 @@ def billiard_walk(H, K, s0, w, slack, state, n_traj, tau, length_mode, max_refl,
             v[i] /= nrm
             w_start[i] = w[i]
         if counts[3] > 4 * p:                # exact slacks now and then (no drift)
-            slack[:] = s0 - np.dot(H, w)
+            exact_slacks(H, s0, w, slack)
             counts[3] = 0
         Hv = np.dot(H, v)
         advance(Hv, slack, rate, zero, 0.0, 0.0)
-        nref = 0
-        rejected = False
-        while True:
-            jmin = np.argmax(rate)
-            t = L
-            if rate[jmin] > 0.0:             # the facet hit first, at path length t
-                tj = max(slack[jmin], 0.0) / Hv[jmin]
-                if tj < L:
-                    t = tj
-                else:
-                    jmin = -1
-            else:
-                jmin = -1
-            for i in range(d):
-                w[i] += t * v[i]
-            L -= t
-            if jmin < 0:                     # the trajectory ends before the next facet
-                for j in range(p):
-                    slack[j] -= t * Hv[j]
-                break
-            nref += 1
-            if nref > max_refl:
-                rejected = True
-                break
-            hj = H[jmin]                     # reflect off facet jmin
-            kj = K[jmin] if use_k else np.dot(H, hj)
-            c = 2.0 * Hv[jmin] / kj[jmin]
-            for i in range(d):
-                v[i] -= c * hj[i]
-            advance(Hv, slack, rate, kj, c, t)
-            slack[jmin] = 0.0                # on the facet (its H v is now < 0)
-            rate[jmin] = -np.inf
+        nref = flight(H, K, s0, w, v, Hv, slack, rate, L, max_refl, use_k, exact, kdiag)
+        rejected = nref > max_refl
         counts[3] += nref + 1
         counts[0] += 1
         counts[1] += nref
+        if exact and not rejected:
+            rejected = exact_slacks(H, s0, w, slack) < 0.0
+            counts[3] = 0
         if rejected:
             counts[2] += 1
             for i in range(d):
                 w[i] = w_start[i]
-            slack[:] = s0 - np.dot(H, w)
+            exact_slacks(H, s0, w, slack)
             counts[3] = 0
         if (it + 1) % every == 0:
             k = (it + 1) // every - 1
@@ -187,21 +192,100 @@ def billiard_walk(H, K, s0, w, slack, state, n_traj, tau, length_mode, max_refl,
                 out[k, i] = w[i]
 
 
+@kernel
+def flight(H, K, s0, w, v, Hv, slack, rate, L, max_refl, use_k, exact, kdiag):
+    """One trajectory of path length L from w along the unit v (both moved in place; Hv,
+    slack, rate (p,) kept up to date): the number of reflections, max_refl + 1 when it
+    stopped there (to be discarded)."""
+    p, d = H.shape
+    nref = 0
+    while True:
+        jmin = np.argmax(rate)
+        t = L
+        if rate[jmin] > 0.0:                 # the facet hit first, at path length t
+            if exact:
+                slack[jmin], Hv[jmin] = hit_row(H, s0, w, v, jmin)
+            tj = max(slack[jmin], 0.0) / Hv[jmin]
+            if tj < L:
+                t = tj
+            else:
+                jmin = -1
+        else:
+            jmin = -1
+        for i in range(d):
+            w[i] += t * v[i]
+        L -= t
+        if jmin < 0:                         # the trajectory ends before the next facet
+            for j in range(p):
+                slack[j] -= t * Hv[j]
+            return nref
+        nref += 1
+        if nref > max_refl:
+            return nref
+        hj = H[jmin]                         # reflect off facet jmin
+        if use_k:
+            c = 2.0 * Hv[jmin] / (kdiag[jmin] if exact else K[jmin, jmin])
+            reflect(v, hj, c)
+            advance(Hv, slack, rate, K[jmin], c, t)
+        else:
+            kj = np.dot(H, hj)
+            c = 2.0 * Hv[jmin] / kj[jmin]
+            reflect(v, hj, c)
+            advance(Hv, slack, rate, kj, c, t)
+        slack[jmin] = 0.0                    # on the facet (its H v is now < 0)
+        rate[jmin] = -np.inf
+
+
 # ----------------------------------------------------------------------------
 # the walk on a polytope {H w <= s0}
 # ----------------------------------------------------------------------------
-def gram_matrix(H, max_bytes: float | None = None) -> np.ndarray:
-    """K = H H^T (p, p) for :func:`billiard_walk` (BLAS syrk), or an empty (0, 0) array
-    when it would take more than ``max_bytes`` (default ``config.MAX_GRAM_BYTES``; the
-    kernel then computes rows on the fly)."""
+GRAM_FORMS = ("auto", "float64", "float32", "rows")
+
+
+def gram_matrix(H, max_bytes: float | None = None, form: str = "auto") -> np.ndarray:
+    """K = H H^T (p, p) for :func:`billiard_walk`, or an empty (0, 0) array (the kernel
+    then computes the rows it needs on the fly, O(p d) each). ``form``: "float64" (BLAS
+    syrk), "float32" (half the memory: the float64 products rounded to float32, computed
+    in row blocks), "rows" (none), "auto": float64 if its 8 p^2 bytes fit ``max_bytes``
+    (default ``config.MAX_GRAM_BYTES``), else float32 if its 4 p^2 bytes fit, else rows."""
     from scipy.linalg.blas import dsyrk
 
     H = np.asarray(H, float)
     p = H.shape[0]
-    if 8.0 * p * p > (config.MAX_GRAM_BYTES if max_bytes is None else max_bytes):
+    cap = config.MAX_GRAM_BYTES if max_bytes is None else max_bytes
+    if form == "auto":
+        form = "float64" if 8.0 * p * p <= cap else "float32" if 4.0 * p * p <= cap else "rows"
+    if form == "rows" or p == 0:
         return np.zeros((0, 0))
+    if form == "float32":
+        return _gram_float32(H)
     K = np.triu(dsyrk(1.0, H, trans=0, lower=0))    # upper triangle of H H^T
     return np.ascontiguousarray(K + np.triu(K, 1).T)
+
+
+def _gram_float32(H, block: int = 1024) -> np.ndarray:
+    """H H^T (p, p) rounded to float32, upper block rows by float64 products (the flops
+    of one syrk), mirrored: no float64 (p, p) array is ever held."""
+    p = H.shape[0]
+    K = np.empty((p, p), np.float32)
+    for a in range(0, p, block):
+        b = min(a + block, p)
+        K[a:b, a:] = H[a:b] @ H[a:].T
+        K[b:, a:b] = K[a:b, b:].T
+    return K
+
+
+def gram_form(K) -> str:
+    """"float64", "float32" or "rows": how :func:`gram_matrix` kept K."""
+    return "rows" if K.shape[0] == 0 else str(K.dtype)
+
+
+def gram_diagonal(H, K) -> np.ndarray:
+    """|h_j|^2 (p,) in float64 for a float32 K (the reflection's exact denominator), an
+    empty array for a float64 K or none (the kernel reads K's own diagonal)."""
+    if K.dtype == np.float32 and K.shape[0]:
+        return np.einsum("ij,ij->i", H, H)
+    return np.zeros(0)
 
 
 def inscribed_radius(H, s0) -> float:
@@ -234,19 +318,21 @@ class Chains:
     slacks (chains, p), generators (chains, 4) and counts (chains, 4), the fixed K, tau,
     length law and max_refl. :meth:`run` advances one chain."""
 
-    def __init__(self, H, s0, W, states, K=None):
+    def __init__(self, H, s0, W, states, K=None, gram: str = "auto"):
         self.H = np.ascontiguousarray(H, dtype=float)
         self.s0 = np.ascontiguousarray(s0, dtype=float)
         self.W = np.array(W, float)
         self.states = np.array(states, np.uint64)
-        self.K = gram_matrix(self.H) if K is None else K
+        self.K = gram_matrix(self.H, form=gram) if K is None else K
+        self.kdiag = gram_diagonal(self.H, self.K)
         self.slack = self.s0[None, :] - self.W @ self.H.T
         self.counts = np.zeros((self.W.shape[0], 4), np.int64)
         self.tau, self.mode, self.max_refl = 1.0, LENGTH_MODES["rehmc"], 10 ** 7
 
     def run(self, c: int, n_traj: int, out=NO_OUT) -> None:
         billiard_walk(self.H, self.K, self.s0, self.W[c], self.slack[c], self.states[c],
-                      n_traj, self.tau, self.mode, self.max_refl, self.counts[c], out)
+                      n_traj, self.tau, self.mode, self.max_refl, self.counts[c], out,
+                      self.kdiag)
 
     def burn_in(self, n_traj: int, tau_factor: float, length: str, tau=None, max_refl=None,
                 progress: bool = False) -> None:
@@ -318,7 +404,8 @@ def default_params(**kw) -> dict:
 
 
 def check_options(n, chains=None, thin=None, burn_in=None, tau_factor=None, length=None,
-                  rounding_updates=None, checkpoint_every=1, source="sample") -> None:
+                  rounding_updates=None, checkpoint_every=1, source="sample",
+                  gram=None) -> None:
     """Refuse meaningless billiard-walk options before any work (InputError)."""
     require_int(source, "n", n, 1, "number of samples", config.MAX_SAMPLES)
     require_int(source, "checkpoint_every", checkpoint_every, 1)
@@ -336,6 +423,8 @@ def check_options(n, chains=None, thin=None, burn_in=None, tau_factor=None, leng
     if length is not None and length not in LENGTH_MODES:
         raise InputError(source, "length", f"must be one of {sorted(LENGTH_MODES)}",
                          got=length)
+    if gram is not None and gram not in GRAM_FORMS:
+        raise InputError(source, "gram", f"must be one of {list(GRAM_FORMS)}", got=gram)
 
 
 SETUP_DESCRIPTION = {
@@ -373,7 +462,8 @@ class BilliardFrameWalk(FrameWalk):
         H = np.ascontiguousarray(H)
         states = chain_states(p["seed"], p["chains"])
         W = dispersed_starts(H, s, p["chains"], p["seed"]) if d else np.zeros((p["chains"], 0))
-        self.walk = Chains(H, s, W, states, None if d else np.zeros((0, 0)))
+        self.walk = Chains(H, s, W, states, None if d else np.zeros((0, 0)),
+                           gram=p.get("gram") or "auto")
         self.cpu["gram_s"] = time.process_time() - c1
         t1, c1 = time.perf_counter(), time.process_time()
         if d:
@@ -395,7 +485,8 @@ class BilliardFrameWalk(FrameWalk):
         """The chains of a checkpoint (the Gram matrix is recomputed: the same BLAS
         product of the same H)."""
         chains = self.params["chains"]
-        walk = Chains(setup["H"], setup["s0"], state["w"], state["rng"])
+        walk = Chains(setup["H"], setup["s0"], state["w"], state["rng"],
+                      gram=self.params.get("gram") or "auto")
         walk.slack = checkpoint["slack"].reshape(walk.slack.shape).copy()
         walk.counts = checkpoint["counts"].astype(np.int64).reshape(chains, 4).copy()
         state["slack"] = walk.slack
@@ -431,7 +522,9 @@ class BilliardWalk(FrameSampler):
     ``max_seconds`` stops early (status 1, every sample drawn kept); ``target_ess``:
     stop as soon as every tracked statistic has bulk and tail ESS >= target_ess and
     split R-hat <= 1.05 (``n`` is then the cap; reaching it first is status 1);
-    ``progress`` shows bars (rounding, burn-in, sampling) on stderr.
+    ``progress`` shows bars (rounding, burn-in, sampling) on stderr; ``gram``: how K =
+    H H^T is kept (:func:`gram_matrix`; default "auto": float64 where it fits
+    ``config.MAX_GRAM_BYTES``, then float32, then rows on the fly).
     Results: ``ensemble`` (:class:`~forcespace.model.ensemble.Ensemble`, with the
     convergence diagnostics), and the run's ``dim``, ``n_rows``, ``times`` (wall),
     ``cpu`` (CPU seconds per stage), ``counts``, ``walk_info`` (tau, max_refl, rounding),
@@ -446,12 +539,12 @@ class BilliardWalk(FrameSampler):
                  tau_factor: float | None = None, length: str | None = None,
                  rounding_updates: int | None = None, max_seconds: float | None = None,
                  checkpoint_every: int = 10, progress: bool = False,
-                 target_ess: float | None = None):
+                 target_ess: float | None = None, gram: str | None = None):
         check_options(n, chains, thin, burn_in, tau_factor, length, rounding_updates,
-                      checkpoint_every)
+                      checkpoint_every, gram=gram)
         super().__init__(n, seed, max_seconds, checkpoint_every, progress, target_ess,
                          chains=chains, thin=thin, burn_in=burn_in, tau_factor=tau_factor,
-                         length=length, rounding_updates=rounding_updates)
+                         length=length, rounding_updates=rounding_updates, gram=gram)
 
     def _walk_results(self, walk: BilliardFrameWalk) -> dict:
         if isinstance(walk, ConicBilliardWalk):
@@ -463,6 +556,7 @@ class BilliardWalk(FrameSampler):
                            "burn_in_reflections": int(walk.burn_in_counts[REFL])},
                 "walk_info": {"tau": float(w.tau), "max_refl": int(w.max_refl),
                               "gram": bool(w.K.shape[0] == w.H.shape[0] > 0),
+                              "gram_form": gram_form(w.K),
                               "rounding": walk.rounding_info}}
 
     def _summary_extra(self) -> dict:

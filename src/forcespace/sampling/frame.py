@@ -60,9 +60,11 @@ class Frame(NamedTuple):
 
 def sampled_analysis(problem, analysis=None):
     """The analysis of S a walk starts from (``analysis``, else ForceSpace's, with the
-    centre): NumericalError if it failed, InputError if S is empty, unbounded or lacks a
-    centre."""
-    an = analysis if analysis is not None else ForceSpace(ranges=False, centre=True).compute(problem)
+    centre and without the varying-contacts LPs: no walk reads them, and they were most
+    of the set-up of a dim-200 slice): NumericalError if it failed, InputError if S is
+    empty, unbounded or lacks a centre."""
+    an = analysis if analysis is not None else \
+        ForceSpace(ranges=False, centre=True, varying=False).compute(problem)
     if not an.success:
         raise NumericalError(f"analysis of S failed: {an.message}")
     if not an.feasible:

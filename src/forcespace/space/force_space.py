@@ -60,8 +60,10 @@ class ForceSpace(Computed):
     """
 
     def __init__(self, ranges: bool = False, centre: bool = True,
-                 tol: float = config.IMPLICIT_TOL, progress: bool = False):
+                 tol: float = config.IMPLICIT_TOL, progress: bool = False,
+                 varying: bool = True):
         self.ranges, self.centre_ball, self.tol = bool(ranges), bool(centre), float(tol)
+        self.varying_test = bool(varying)
         self.progress = bool(progress)
         self.problem: StaticsProblem | None = None
         self._domains = None
@@ -93,7 +95,8 @@ class ForceSpace(Computed):
                 done.append(name)
             try:
                 analyze(P, r, ranges=self.ranges, centre=self.centre_ball,
-                        tol=max(self.tol, CONE_FACE_TOL) if conic else self.tol, stage=stage)
+                        tol=max(self.tol, CONE_FACE_TOL) if conic else self.tol, stage=stage,
+                        **({} if conic else {"varying": self.varying_test}))
             except NumericalError as exc:
                 self._finish(2, str(exc))
             else:
@@ -247,7 +250,10 @@ class ForceSpace(Computed):
     def varying(self) -> np.ndarray:
         """(m,) bool: the contact's force can change by more than ``config.VARY_TOL``
         <Fn> within S (decided on forces: bounds from the ball and the diameter of S,
-        LPs where they do not decide)."""
+        LPs where they do not decide). Not computed by ``ForceSpace(varying=False)``
+        (the samplers' frame: it needs no per-contact LP)."""
+        if not self.varying_test and self.computed:
+            raise AttributeError("ForceSpace.varying: not computed (ForceSpace(varying=False))")
         return self._get("varying")
 
     @property
@@ -320,7 +326,8 @@ class ForceSpace(Computed):
                       "contacts_on_a_ray": pk[r["sliding_contacts"]].tolist(),
                       "contacts_at_the_apex": pk[r["zero_contacts"]].tolist(),
                       "faces_convention": FACES_CONVENTION})
-        elif r.get("feasible") and r.get("dim") is not None and not self._status:
+        elif r.get("feasible") and r.get("dim") is not None and not self._status \
+                and self.varying_test:      # domains need the varying contacts
             doms = self.domains
             d.update({"n_domains": len(doms), "domain_dims": [g.dim for g in doms],
                       # a domain of dimension 1 is one elementary cluster that shares no
@@ -390,10 +397,11 @@ STAGES = {"feasibility and implicit equalities": 0.45, "boundedness": 0.15,
 
 
 def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol: float,
-             stage=lambda name: None):
+             stage=lambda name: None, varying: bool = True):
     """Fill ``out`` with the analysis of S of ``problem`` (at <Fn> = 1), in order:
     feasibility, boundedness, implicit equalities, affine hull, ranges, centre,
-    varying contacts; ``stage(name)`` is called as each begins. Large problems
+    varying contacts (unless ``varying`` is False: the samplers' frame needs none of its
+    LPs, most of a small slice's analysis); ``stage(name)`` is called as each begins. Large problems
     (``config.SWEEP_MIN_COLUMNS`` columns and up) decide the strict rows, the largest
     total force and the centre by interior-point LPs without crossover (one each),
     then confirm the undecided rows by the exact test. An LP failure raises
@@ -454,6 +462,8 @@ def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol
     if bounded and centre:
         stage("centre")
         out["centre"], out["radius"] = centre_and_radius(problem, N, imp, interior=large)
+    if not varying:
+        return
     stage("varying contacts")
     rngs = (out["fn_range"], out["ft_range"]) if out["fn_range"] is not None else None
     out["varying"] = varying_contacts(problem, N, msum, out["radius"] or 0.0, rngs,
