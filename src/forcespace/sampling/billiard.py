@@ -135,15 +135,15 @@ def exact_slacks(H, s0, w, slack) -> float:
 
 
 @kernel
-def billiard_walk(H, K, s0, w, slack, state, n_traj, tau, length_mode, max_refl, counts, out,
-                  kdiag):
+def billiard_walk(H, gram, s0, w, slack, state, n_traj, tau, length_mode, max_refl, counts,
+                  out):
     """Run ``n_traj`` billiard-walk trajectories from w in place (module docstring).
 
     H (p, d) C-contiguous and s0 (p,): the polytope {H w <= s0}; w (d,) a point of it,
     overwritten with the end point; slack (p,) = s0 - H w on entry, kept up to date.
-    K (p, p) = H H^T (float64, or float32: then ``kdiag`` (p,) holds |h_j|^2 in float64),
-    or an empty (0, 0) array to compute each needed row H h_j on the fly. With float32 K
-    (``kdiag`` non-empty) the hit row's slack and rate are recomputed exactly (O(d)), the
+    gram = (K, kdiag): K (p, p) = H H^T (float64, or float32: then kdiag (p,) holds
+    |h_j|^2 in float64, else it is empty), or an empty (0, 0) K to compute each needed row
+    H h_j on the fly. With float32 K the hit row's slack and rate are recomputed exactly (O(d)), the
     slacks exactly at every trajectory's end, and a trajectory ending outside the
     polytope (an exact slack < 0, missed through the float32 rows) is discarded.
     state (4,) uint64 xoshiro256** state, advanced in place. tau > 0: length scale
@@ -154,8 +154,7 @@ def billiard_walk(H, K, s0, w, slack, state, n_traj, tau, length_mode, max_refl,
     """
     p, d = H.shape
     every = max(n_traj // out.shape[0], 1) if out.shape[0] > 0 else n_traj + 1
-    use_k = K.shape[0] == p
-    exact = kdiag.shape[0] == p
+    exact = gram[1].shape[0] == p
     v = np.zeros(d)
     w_start = np.zeros(d)
     rate = np.zeros(p)
@@ -172,7 +171,7 @@ def billiard_walk(H, K, s0, w, slack, state, n_traj, tau, length_mode, max_refl,
             counts[3] = 0
         Hv = np.dot(H, v)
         advance(Hv, slack, rate, zero, 0.0, 0.0)
-        nref = flight(H, K, s0, w, v, Hv, slack, rate, L, max_refl, use_k, exact, kdiag)
+        nref = flight(H, gram, s0, w, v, Hv, slack, rate, L, max_refl)
         rejected = nref > max_refl
         counts[3] += nref + 1
         counts[0] += 1
@@ -193,11 +192,14 @@ def billiard_walk(H, K, s0, w, slack, state, n_traj, tau, length_mode, max_refl,
 
 
 @kernel
-def flight(H, K, s0, w, v, Hv, slack, rate, L, max_refl, use_k, exact, kdiag):
+def flight(H, gram, s0, w, v, Hv, slack, rate, L, max_refl):
     """One trajectory of path length L from w along the unit v (both moved in place; Hv,
-    slack, rate (p,) kept up to date): the number of reflections, max_refl + 1 when it
-    stopped there (to be discarded)."""
+    slack, rate (p,) kept up to date; gram as for :func:`billiard_walk`): the number of
+    reflections, max_refl + 1 when it stopped there (to be discarded)."""
     p, d = H.shape
+    K, kdiag = gram
+    use_k = K.shape[0] == p
+    exact = kdiag.shape[0] == p
     nref = 0
     while True:
         jmin = np.argmax(rate)
@@ -330,9 +332,9 @@ class Chains:
         self.tau, self.mode, self.max_refl = 1.0, LENGTH_MODES["rehmc"], 10 ** 7
 
     def run(self, c: int, n_traj: int, out=NO_OUT) -> None:
-        billiard_walk(self.H, self.K, self.s0, self.W[c], self.slack[c], self.states[c],
-                      n_traj, self.tau, self.mode, self.max_refl, self.counts[c], out,
-                      self.kdiag)
+        billiard_walk(self.H, (self.K, self.kdiag), self.s0, self.W[c], self.slack[c],
+                      self.states[c], n_traj, self.tau, self.mode, self.max_refl,
+                      self.counts[c], out)
 
     def burn_in(self, n_traj: int, tau_factor: float, length: str, tau=None, max_refl=None,
                 progress: bool = False) -> None:
