@@ -261,8 +261,19 @@ def gram_matrix(H, max_bytes: float | None = None, form: str = "auto") -> np.nda
         return np.zeros((0, 0))
     if form == "float32":
         return _gram_float32(H)
-    K = np.triu(dsyrk(1.0, H, trans=0, lower=0))    # upper triangle of H H^T
-    return np.ascontiguousarray(K + np.triu(K, 1).T)
+    # upper triangle of H H^T (Fortran order): its transpose is C-ordered with the lower
+    # triangle set, mirrored in place (one (p, p) array held, not four)
+    return _mirror_lower(dsyrk(1.0, H, trans=0, lower=0).T)
+
+
+def _mirror_lower(M, block: int = 1024) -> np.ndarray:
+    """M (p, p) C-ordered with its lower triangle set: made symmetric in place, by blocks."""
+    p = M.shape[0]
+    for a in range(0, p, block):
+        b = min(a + block, p)
+        M[a:b, a:b] = np.tril(M[a:b, a:b]) + np.tril(M[a:b, a:b], -1).T
+        M[a:b, b:] = M[b:, a:b].T
+    return M
 
 
 def _gram_float32(H, block: int = 1024) -> np.ndarray:
