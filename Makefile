@@ -4,7 +4,8 @@
 # CPU benchmarks against the old engine and pymunk, forcespace_studies.bench_engine, and the
 # exact analysis against the old code, forcespace_studies.bench_analysis, and a measured
 # 1000-particle frame read and checked, forcespace_studies.bench_measured, and the sphere
-# jam at 500 spheres (--long: 2000) with the per-contact update, forcespace_studies.bench_spheres;
+# jam at 500 spheres (--long: 2000) with the per-contact update, forcespace_studies.bench_spheres,
+# and the billiard walk to ESS 100 at dim 228 and 1714, forcespace_studies.bench_sampler;
 # the samplers' cost table is `python studies/sampler_cost.py studies/sampler_cost`, hours, see its note);
 # `make studies` runs every study at full size (days on a few cores; resumable: rerun
 # after any interruption; not run by CI) into studies/results/NAME and rebuilds
@@ -65,6 +66,7 @@ bench: install liggghts
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_certificate --section compaction
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_measured
 	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_spheres
+	OMP_NUM_THREADS=1 $(BIN)/python -m forcespace_studies.bench_sampler
 
 STUDIES     := fig1 fig3 fig2 size pointforce selection measured
 # studies whose verdicts.json their own script writes (not run by `forcespace study`),
