@@ -172,6 +172,31 @@ def test_checkpoint_of_another_scene_is_refused(tmp_path):
                       checkpoint=ck)
 
 
+def test_checkpoint_written_before_a_scene_key_was_added_resumes(tmp_path):
+    """A checkpoint whose scene text lacks keys added to the language since (written by
+    an older version: here the two solver keys of the compaction step, at their defaults)
+    still resumes, bit for bit; a real difference is still refused (test above)."""
+    import h5py
+
+    from forcespace.errors import NumericalError
+    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
+    fresh = build_packing(scene, show_progress=False)
+    ck = tmp_path / "p.h5.checkpoint.h5"
+    with pytest.raises(NumericalError, match="resumes from"):
+        build_packing(scene.with_overrides(**{"jamming.max_steps": 600}), show_progress=False,
+                      checkpoint=ck)
+    with h5py.File(ck, "r+") as f:
+        text = f.attrs["scene"]
+        older = "\n".join(ln for ln in text.split("\n")
+                          if not ln.startswith(("dt_compacting", "compacting_speed")))
+        assert older != text
+        f.attrs["scene"] = older
+    resumed = build_packing(scene, show_progress=False, checkpoint=ck)
+    np.testing.assert_array_equal(resumed.x, fresh.x)
+    np.testing.assert_array_equal(resumed.fn, fresh.fn)
+    assert resumed.meta["steps"] == fresh.meta["steps"]
+
+
 @pytest.mark.parametrize("overrides", [
     # wide size ratio, strong friction, gravity-settled layer without a top plate
     {"disks.n": 16, "disks.radius_max": 4.0, "box.width": 30.0, "physics.mu": 1.0,

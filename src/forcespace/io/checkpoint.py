@@ -77,6 +77,21 @@ def write_checkpoint(path, identity: str, state: dict) -> None:
                       "one row per compression window; speeds in R/T", columns=LOG_COLUMNS)
 
 
+def same_scene(stored, identity: str) -> bool:
+    """Does a checkpoint's scene text ``stored`` name the scene of ``identity``
+    (:attr:`forcespace.model.setup.Setup.identity`)? Also when it was written before a key
+    was added to the scene language: the stored text read as a scene and written again
+    (every key, the new ones at their defaults, which leave a run as it was) is compared."""
+    if stored == identity:
+        return True
+    from ..model.scene import parse_scene_text
+
+    try:
+        return parse_scene_text(str(stored)).to_toml().split("\n", 1)[1] == identity
+    except (ValueError, IndexError, InputError):
+        return False
+
+
 def read_checkpoint(path, identity: str) -> dict | None:
     """The state saved in ``path`` for the scene of ``identity``; None if there is no
     such file.
@@ -88,7 +103,7 @@ def read_checkpoint(path, identity: str) -> dict | None:
     if not path.is_file():
         return None
     with open_h5(path, kind=KIND) as f:
-        if f.attrs.get("scene") != identity:
+        if not same_scene(f.attrs.get("scene"), identity):
             raise InputError(path, "scene", "checkpoint belongs to another scene; delete it "
                              "to start afresh")
         try:
