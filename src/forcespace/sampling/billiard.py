@@ -47,7 +47,12 @@ instead of the O(p d) of recomputing H v. A trajectory starts with one product H
 (O(p d)) for its fresh velocity; the slacks s0 - H w are kept per chain, updated
 incrementally and recomputed exactly every ~4 p reflections and after a rejection. K
 costs 8 p^2 bytes (0.9 GB at the 5000-disk slice, p = 10676); above
-``config.MAX_GRAM_BYTES`` the kernel computes H h_j per reflection instead (O(p d)).
+``config.MAX_GRAM_BYTES`` it is kept in float32 (4 p^2 bytes; the hit facet's slack and
+rate recomputed exactly, slacks exact at every trajectory's end: the same reflections as
+float64, end points within 1e-12 at dim 1714, studies/sampler_cost.md), beyond that the
+kernel computes H h_j per reflection (O(p d)). A reflection's cost is its passes over
+the p slacks, rates and row products, so float32 saves memory, not time. K = C (T T^T)
+C^T with C the cone rows per contact is no smaller: two rows per contact, 2m >= p.
 
 Frame and rounding: x = x_centre + T w in the frame both uniform walks share (frame.frame:
 the affine hull of S, its non-implicit inequalities) and the cheap Lewis-weight rounding
