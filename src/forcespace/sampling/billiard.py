@@ -148,9 +148,9 @@ def billiard_walk(H, gram, s0, w, slack, state, n_traj, tau, length_mode, max_re
     overwritten with the end point; slack (p,) = s0 - H w on entry, kept up to date.
     gram = (K, kdiag): K (p, p) = H H^T (float64, or float32: then kdiag (p,) holds
     |h_j|^2 in float64, else it is empty), or an empty (0, 0) K to compute each needed row
-    H h_j on the fly. With float32 K the hit row's slack and rate are recomputed exactly (O(d)), the
-    slacks exactly at every trajectory's end, and a trajectory ending outside the
-    polytope (an exact slack < 0, missed through the float32 rows) is discarded.
+    H h_j on the fly. With float32 K the hit row's slack and rate are recomputed exactly
+    (O(d)), the slacks exactly at every trajectory's end, and a trajectory ending outside
+    the polytope (an exact slack < 0, missed through the float32 rows) is discarded.
     state (4,) uint64 xoshiro256** state, advanced in place. tau > 0: length scale
     (units of w). length_mode: LENGTH_MODES. max_refl: a trajectory that needs more
     reflections is discarded (the chain stays at its start). counts (4,) int64,

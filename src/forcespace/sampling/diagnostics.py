@@ -118,8 +118,8 @@ def _rhat(v) -> float:
 
 
 def rhat_rank(v) -> float:
-    """Rank-normalised split R-hat of (chains >= 2, draws; NaN for one chain): the larger of the bulk one
-    and the folded one (|v - median|)."""
+    """Rank-normalised split R-hat of (chains >= 2, draws; NaN for one chain): the
+    larger of the bulk one and the folded one (|v - median|)."""
     v = np.asarray(v, float)
     if v.shape[0] < 2:
         return np.nan

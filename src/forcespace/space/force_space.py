@@ -401,9 +401,9 @@ def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol
     """Fill ``out`` with the analysis of S of ``problem`` (at <Fn> = 1), in order:
     feasibility, boundedness, implicit equalities, affine hull, ranges, centre,
     varying contacts (unless ``varying`` is False: the samplers' frame needs none of its
-    LPs, most of a small slice's analysis); ``stage(name)`` is called as each begins. Large problems
-    (``config.SWEEP_MIN_COLUMNS`` columns and up) decide the strict rows, the largest
-    total force and the centre by interior-point LPs without crossover (one each),
+    LPs, most of a small slice's analysis); ``stage(name)`` is called as each begins.
+    Large problems (``config.SWEEP_MIN_COLUMNS`` columns and up) decide the strict rows,
+    the largest total force and the centre by interior-point LPs without crossover (one each),
     then confirm the undecided rows by the exact test. An LP failure raises
     NumericalError with ``out`` holding what was reached."""
     m2 = problem.n_columns
