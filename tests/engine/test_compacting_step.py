@@ -53,3 +53,6 @@ def test_the_compacting_protocol_scales_and_is_checked():
         jam(bad)
     setup = Setup.from_scene(tiny("paper_fast_compaction"))
     assert setup.solver.dt_compacting == pytest.approx(2 * setup.solver.dt)
+    # a scene that does not set the keys keeps its text (packing files, checkpoint identity)
+    assert "compacting" not in load_scene("paper_certified").to_toml()
+    assert "dt_compacting = 0.2" in sc.to_toml()

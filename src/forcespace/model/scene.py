@@ -113,7 +113,10 @@ class Key:
     """One scene key: its type, default, allowed values (``check``: a :class:`Range`,
     :class:`OneOf` or :class:`Relation`, all readable as data; None: any value of the
     type), meaning and unit; ``dims``: the dimensions whose scene text writes it (a key
-    of 3-D scenes only is left out of a 2-D scene's text, where it has its default)."""
+    of 3-D scenes only is left out of a 2-D scene's text, where it has its default);
+    ``quiet_default``: a key added after scenes were stored, left out of the text at its
+    default, so that the texts (and the checkpoint identities built from them) of the
+    scenes that do not set it stay as they were."""
 
     type: type
     default: object
@@ -121,6 +124,7 @@ class Key:
     doc: str
     unit: str = ""
     dims: tuple = (2, 3)
+    quiet_default: bool = False     # at its default, left out of the scene text
 
     @property
     def meaning(self) -> str:
@@ -335,11 +339,13 @@ SCHEMA: dict[str, Key] = {
     "solver.dt_compacting": Key(float, 0.0, _nonneg(),
                                 "time step of a window that follows a window whose mean speed "
                                 "exceeded solver.compacting_speed (the packing still "
-                                "compacting; 0: solver.dt throughout)", "sqrt(rho R^3 / F)"),
+                                "compacting; 0: solver.dt throughout)", "sqrt(rho R^3 / F)",
+                                quiet_default=True),
     "solver.compacting_speed": Key(float, 0.0, _nonneg(),
                                    "window mean speed, relative to sqrt(F0 rbar/mbar) as "
                                    "jamming.velocity_tol, above which the next window steps by "
-                                   "solver.dt_compacting (the first window always does)"),
+                                   "solver.dt_compacting (the first window always does)",
+                                   quiet_default=True),
     "solver.contact_margin": Key(float, 0.1, _positive(),
                                  "pairs closer than this gap enter the contact list", "R"),
     "jamming.velocity_tol": Key(float, 1e-7, _positive(),
@@ -411,7 +417,8 @@ class Scene:
         return self.frictional if mode == "auto" else mode == "on"
 
     def to_toml(self) -> str:
-        """The complete effective scene (every key, defaults filled in) as TOML.
+        """The complete effective scene (every key, defaults filled in; a ``quiet_default``
+        key only when it differs from its default) as TOML.
 
         This is what packing files store, so a packing can be rebuilt exactly. Keys that
         apply to 3-D scenes only (``box.dimension``, ``box.depth``: :attr:`Key.dims`) are
@@ -423,6 +430,8 @@ class Scene:
         section = None
         for key, value in self.values.items():
             if self.dim not in SCHEMA[key].dims:     # a 3-D key in a 2-D scene
+                continue
+            if SCHEMA[key].quiet_default and value == SCHEMA[key].default:
                 continue
             sec, name = key.split(".")
             if sec != section:
