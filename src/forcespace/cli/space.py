@@ -147,6 +147,11 @@ def cmd_sample(args) -> int:
                             direction=args.direction, **common)
     packing, problem = load_problem(args.packing, args.slice, args.full, args.gap_tol, args.mu,
                                     spheres=True)
+    if args.sampler == "relax" and getattr(packing, "dim", 2) == 3:
+        from ..errors import InputError
+        raise InputError(str(args.packing), "--sampler", "relax (the paper's walk, through the "
+                         "disk engine) takes disk packings only; a sphere packing takes "
+                         "billiard (default) or hit-and-run")
     if not args.quiet:
         from ..kernels import compile_notice
         compile_notice(("forcespace.sampling", "forcespace.engine") if args.sampler == "relax"
