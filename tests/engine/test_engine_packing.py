@@ -143,7 +143,9 @@ def test_frictionless_packing_reports_zero_tangential_updates(quick):
     assert quick.meta["rotation"] is False
 
 
-def test_interrupted_compression_resumes_bit_identically(tmp_path):
+def jam_and_interrupt(tmp_path):
+    """A 14-disk quick jam straight through, and the same jam stopped after 600 steps
+    (NumericalError) leaving its checkpoint: (scene, fresh packing, checkpoint path)."""
     from forcespace.errors import NumericalError
     scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
     fresh = build_packing(scene, show_progress=False)
@@ -151,6 +153,11 @@ def test_interrupted_compression_resumes_bit_identically(tmp_path):
     with pytest.raises(NumericalError, match="resumes from"):
         build_packing(scene.with_overrides(**{"jamming.max_steps": 600}), show_progress=False,
                       checkpoint=ck)
+    return scene, fresh, ck
+
+
+def test_interrupted_compression_resumes_bit_identically(tmp_path):
+    scene, fresh, ck = jam_and_interrupt(tmp_path)
     assert ck.exists()
     resumed = build_packing(scene, show_progress=False, checkpoint=ck)
     assert not ck.exists()
@@ -179,13 +186,7 @@ def test_checkpoint_written_before_a_scene_key_was_added_resumes(tmp_path):
     marked quiet_default (the compaction step's) are not even written at their default."""
     import h5py
 
-    from forcespace.errors import NumericalError
-    scene = load_scene(QUICK).with_overrides(**{"disks.n": 14})
-    fresh = build_packing(scene, show_progress=False)
-    ck = tmp_path / "p.h5.checkpoint.h5"
-    with pytest.raises(NumericalError, match="resumes from"):
-        build_packing(scene.with_overrides(**{"jamming.max_steps": 600}), show_progress=False,
-                      checkpoint=ck)
+    scene, fresh, ck = jam_and_interrupt(tmp_path)
     with h5py.File(ck, "r+") as f:
         text = f.attrs["scene"]
         assert "dt_compacting" not in text and "compacting_speed" not in text
