@@ -63,12 +63,14 @@ def per_mu(rows) -> dict:
 
 
 def table(rows) -> str:
-    """The markdown table: one line per mu, mean ± standard error over the seeds."""
+    """The markdown table: one line per mu, mean ± standard error over the seeds (the value
+    alone where one packing has no standard error)."""
     lines = ["| μ | seeds | n | z (non-rattlers) | packing fraction φ | rattler fraction | "
              "largest static residual [⟨Fn⟩] | largest Coulomb excess [⟨Fn⟩] | "
              "CPU s per jam (median) |", "|---|---|---|---|---|---|---|---|---|"]
     for mu, d in per_mu(packings(rows)).items():
-        cells = [f"{fmt.format(d[k][0])} ± {fmt.format(d[k][1])}" for k, _, fmt in QUANTITIES]
+        cells = [fmt.format(d[k][0]) + (f" ± {fmt.format(d[k][1])}" if d["seeds"] > 1 else "")
+                 for k, _, fmt in QUANTITIES]
         lines.append(f"| {mu:g} | {d['seeds']} | {d['n']} | {' | '.join(cells)} | "
                      f"{d['residual']:.1e} | {d['coulomb']:.1e} | {d['cpu_median']:.0f} |")
     return "\n".join(lines) + "\n"
