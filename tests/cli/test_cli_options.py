@@ -9,7 +9,12 @@ PACK = DATA / "paper_mu1_seed2.h5"
 
 @pytest.fixture
 def no_work(monkeypatch):
+    import forcespace
     import forcespace.io.packing_file as pf
+    # forcespace.read_packing is resolved lazily and then kept in the package: resolve it
+    # before the patch, or a first use during this test would keep the failing stand-in
+    # for every later test of the same process (seen with pytest -n 2)
+    forcespace.read_packing
     monkeypatch.setattr(pf, "read_packing", lambda *a, **k: pytest.fail("read before checks"))
 
 
