@@ -48,6 +48,24 @@ below the design's largest mu, 10):
 6. *z -> 6 as mu -> 0 and z falls towards 4 at large mu*: the mean z at mu = 0 within 0.1
    of 6, and at the largest mu (>= 3, else not decidable) within 0.3 of 4: reproduced,
    else refuted.
+
+Rule 5 at n = 500 (a pre-declared extension, fixed 2026-11-28 09:45 UTC before any of these
+analyses ran and before the last 17 packings at n = 100; rules 1-6 above judge the complete
+50-packing set as they stand). The paper's counting (an N_c-dimensional S in a
+3N_c-dimensional force space, from frictionless isostaticity) is a bulk claim; at n = 100
+the plates' contacts are ~20 % of N_c. So:
+
+5'. the SAME rule 5, unchanged (0 < mu <= 0.01; **reproduced** if the mean of
+   (3 N_c - 6 n) / N_c lies within 0.1 of 1, else refuted; fewer than 3 packings: not
+   decidable; dim S / N_c and dim S / (N_c - 2 (N_bottom + N_top)) reported beside, mean
+   +- sd), applied to issue 43's five mu = 0.01 packings of n = 500 (scene
+   ``paper3d_certified`` scaled to n = 500, ``studies/results/spheres3d_certified_n500``,
+   seeds 1-5; copied to ``OUT/packings/n500/``), whole problem, dim S exact by the conic
+   analysis (``studies/spheres_s.py``'s ``analyse``), rows in ``OUT/rule5_n500_rows.jsonl``.
+   Its five mu = 0 packings are analysed the same way and reported beside (no verdict).
+   Whether dim S / N_c approaches 1 as the boundary's share falls is reported as numbers
+   only (the ratios and the plates' share 2 (N_bottom + N_top) / N_c at n = 100 and at
+   n = 500, mean +- sd), no verdict. Sampling eta at n = 500 is not part of it.
 """
 from __future__ import annotations
 
