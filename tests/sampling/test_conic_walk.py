@@ -154,3 +154,12 @@ def test_the_pyramids_cross_check_samples_the_inscribed_pyramid_uniformly():
     assert 0.9 < q.max() <= 1 + 1e-9
     with pytest.raises(InputError, match="spheres only"):
         HitAndRun(10, pyramids=4).compute(full_problem(two_row_packing()))
+
+
+def test_a_polytope_only_sampler_refuses_spheres_naming_the_conic_samplers():
+    class PolytopeOnly(HitAndRun):
+        ConicWalk = None                          # a plug-in that walks polytopes only
+
+    with pytest.raises(InputError, match="BilliardWalk or HitAndRun") as err:
+        PolytopeOnly(10, seed=1).compute(solid_cone())
+    assert "PolytopeOnly" in str(err.value) and "\n" not in str(err.value)

@@ -358,6 +358,11 @@ class TimedStop(Stop):
             self.cpu_s += time.process_time() - c0
 
 
+def _subclasses(cls) -> list:
+    """Every subclass of ``cls``, at any depth."""
+    return [c for sub in cls.__subclasses__() for c in (sub, *_subclasses(sub))]
+
+
 class FrameSampler(Sampler):
     """A sampler that walks in the rounded affine frame of S (hit-and-run, billiard):
     ``Walk`` its :class:`~forcespace.sampling.frame.FrameWalk`, the options its own
@@ -404,9 +409,10 @@ class FrameSampler(Sampler):
         Coulomb cones), ``Walk`` otherwise; InputError if the sampler has no conic walk."""
         if isinstance(problem, SphereStaticsProblem):
             if self.ConicWalk is None:
+                conic = sorted(c.__name__ for c in _subclasses(FrameSampler) if c.ConicWalk)
                 raise InputError(type(self).__name__, "problem", "S of spheres (circular "
-                                 "Coulomb cones) is sampled by HitAndRun; this sampler "
-                                 "walks in polytopes only")
+                                 f"Coulomb cones) is sampled by {' or '.join(conic)}; "
+                                 "this sampler walks in polytopes only")
             return self.ConicWalk
         return self.Walk
 
