@@ -81,12 +81,14 @@ def jam_timed(out: Path, scene: str, n: int, mu: float, seed: int):
     return p, (time.process_time() - t0 if wall > 0 else None)
 
 
-def one(protocol: str, n: int, mu: float, seed: int, out: str, reference_rows: dict) -> dict:
-    """Jam and measure one packing (a worker process); see the module docstring."""
+def one(protocol: str, n: int, mu: float, seed: int, out: str, reference_rows: dict,
+        scenes: dict | None = None) -> dict:
+    """Jam and measure one packing (a worker process); see the module docstring.
+    ``scenes``: protocol -> scene name (default PROTOCOLS; another study's pair)."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from . import size
     from forcespace.errors import NumericalError
-    scene = PROTOCOLS[protocol]
+    scene = (scenes or PROTOCOLS)[protocol]
     base = Path(out) / protocol
     t0 = time.process_time()
     try:

@@ -60,6 +60,12 @@ def one(protocol: str, n: int, mu: float, seed: int) -> dict:
             "static_residual": float(m["static_residual"])}
 
 
+def one_with_s(protocol: str, n: int, mu: float, seed: int, out: str) -> dict:
+    """Jam, keep and measure one packing of ``PROTOCOLS[protocol]`` with its S (a worker)."""
+    from .certificate_validation import one as measured
+    return measured(protocol, n, mu, seed, out, {}, scenes=PROTOCOLS)
+
+
 def shipped_rows() -> list:
     """paper_certified's rows of the certificate-speed study (the shipped scene)."""
     if not SHIPPED.is_file():
@@ -69,7 +75,7 @@ def shipped_rows() -> list:
                  taken_from=str(SHIPPED)) for r in rows if r.get("factor") == 100.0]
 
 
-def report(rows: list) -> str:
+def report(rows: list, quantities=QUANTITIES) -> str:
     """Tables per mu (reference against candidate over the seeds both have)."""
     out = []
     for mu in sorted({r["mu"] for r in rows}):
@@ -79,7 +85,7 @@ def report(rows: list) -> str:
         sub = [r for r in sub if (r["n"], r["seed"]) in both]
         sizes = sorted({n for n, _s in both})
         out += [f"### mu = {mu:g}: paper_certified (reference) against paper_fast_compaction "
-                "(candidate)", "", table(sub, sizes, "candidate", QUANTITIES), ""]
+                "(candidate)", "", table(sub, sizes, "candidate", quantities), ""]
     return "\n".join(out)
 
 
@@ -89,8 +95,13 @@ def main(argv=None) -> int:
     ap.add_argument("--mus", default="0.1,1")
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--jobs", type=int, default=1)
-    ap.add_argument("--out", type=Path, default=Path("studies/results/compaction_validation"))
+    ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--with-s", action="store_true",
+                    help="jam both scenes again, keep the packings, measure dim S / Nc and eta")
     a = ap.parse_args(argv)
+    if a.with_s:
+        return with_s(a)
+    a.out = a.out or Path("studies/results/compaction_validation")
     a.out.mkdir(parents=True, exist_ok=True)
     path = a.out / "rows.jsonl"
     rows = [json.loads(x) for x in path.read_text().splitlines()] if path.is_file() else []
@@ -104,6 +115,25 @@ def main(argv=None) -> int:
               lambda r: f"  {r['protocol']:9s} n={r['n']} mu={r['mu']:g} seed={r['seed']}: "
                         f"{r['jam_cpu_s']:.1f} CPU s, {r['jam_steps']} steps, z {r['z']:.4f}")
     print(report(rows + shipped))
+    return 0
+
+
+def with_s(a) -> int:
+    """The ``--with-s`` run: every (n, mu, seed, protocol) not in OUT/rows.jsonl."""
+    from .certificate_validation import COSTS, QUANTITIES as WITH_S
+    out = a.out or Path("studies/results/compaction_validation_s")
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "rows.jsonl"
+    rows = [json.loads(x) for x in path.read_text().splitlines()] if path.is_file() else []
+    have = {(r["protocol"], r["n"], r["mu"], r["seed"]) for r in rows}
+    todo = [(one_with_s, (pr, int(n), float(mu), s, str(out))) for n in a.sizes.split(",")
+            for mu in a.mus.split(",") for s in range(1, a.seeds + 1)
+            for pr in PROTOCOLS if (pr, int(n), float(mu), s) not in have]
+    pool_rows(todo, a.jobs, path, rows,
+              lambda r: f"  {r['protocol']:9s} n={r['n']} mu={r['mu']:g} seed={r['seed']}: "
+                        f"{r.get('jam_cpu_s') or 0:.1f} CPU s, z {r['z']:.4f}, dim S / Nc "
+                        f"{r.get('dim_S_over_Nc')}, eta {r.get('eta_billiard')}")
+    print(report(rows, WITH_S + COSTS))
     return 0
 
 
