@@ -5,10 +5,11 @@ Usage (one resumable background job; rerun the same command to continue)::
     nice -n 10 python studies/spheres_fig1.py [--out studies/results/spheres_fig1]
         [--mu 0 0.001 0.003 0.01 0.03 0.1 0.3 1 3 10] [--seeds 1 2 3 4 5]
     python studies/spheres_fig1.py --report          # tables, figure, verdicts only
+    nice -n 10 python studies/spheres_fig1.py --n500  # rule 5' (exact analysis, resumable)
 
 Packings: 100 spheres of the scene ``paper3d`` scaled to n = 100 (``studies/spheres3d.py``'s
 ``jam_one``: ``OUT/packings/mu{MU}_s{SEED}.h5``, resumed from its compression checkpoint).
-The n >= 500 set is issue 43's (not ready this session); every verdict names n = 100.
+Every verdict names n = 100 except rule 5' (issue 43's n = 500 packings, analysis only).
 
 Per packing (one row of ``OUT/fig1_rows.jsonl``, appended as soon as it is done):
 
@@ -49,7 +50,7 @@ below the design's largest mu, 10):
    of 6, and at the largest mu (>= 3, else not decidable) within 0.3 of 4: reproduced,
    else refuted.
 
-Rule 5 at n = 500 (a pre-declared extension, fixed 2026-11-28 09:45 UTC before any of these
+Rule 5 at n = 500 (a pre-declared extension, fixed 2026-11-28 09:38 UTC before any of these
 analyses ran and before the last 17 packings at n = 100; rules 1-6 above judge the complete
 50-packing set as they stand). The paper's counting (an N_c-dimensional S in a
 3N_c-dimensional force space, from frictionless isostaticity) is a bulk claim; at n = 100
@@ -122,18 +123,49 @@ def one(mu: float, seed: int, out: Path) -> dict:
     return row
 
 
+def n500(out: Path) -> list[dict]:
+    """Rule 5': the whole problem of each n = 500 packing in ``OUT/packings/n500/``
+    (``mu{MU}_s{SEED}.h5``, mu = 0.01 first) analysed exactly, one row appended to
+    ``OUT/rule5_n500_rows.jsonl`` per packing as it is done (a rerun skips those done)."""
+    from spheres_s import analyse
+
+    rows_file = out / "rule5_n500_rows.jsonl"
+    rows = [json.loads(ln) for ln in rows_file.read_text().splitlines()] \
+        if rows_file.is_file() else []
+    done = {r["packing"] for r in rows}
+    todo = sorted((out / "packings" / "n500").glob("mu*_s*.h5"),
+                  key=lambda f: (f.stem.startswith("mu0_"), f.stem))
+    todo = [f for f in todo if f.name not in done]
+    print(f"rule 5' at n = 500: {len(todo)} packings to analyse ({len(done)} done)",
+          file=sys.stderr, flush=True)
+    for k, path in enumerate(todo):
+        row = analyse(path, None)
+        row["seed"] = int(path.stem.split("_s")[1])
+        rows.append(row)
+        with open(rows_file, "a") as f:
+            f.write(json.dumps(row) + "\n")
+        print(f"[{k + 1}/{len(todo)}] {path.name}: n {row['n_interior']}, N_c "
+              f"{row['n_contacts']}, 3Nc-6n {row['count_3Nc_minus_6n']}, dim S "
+              f"{row['dim_S']}, {row['cpu_seconds']:.0f} CPU s", file=sys.stderr, flush=True)
+    return rows
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--mu", type=float, nargs="+", default=MUS)
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5])
     ap.add_argument("--out", default="studies/results/spheres_fig1")
     ap.add_argument("--report", action="store_true", help="tables, figure, verdicts only")
+    ap.add_argument("--n500", action="store_true",
+                    help="rule 5' only: the exact analysis of OUT/packings/n500/*.h5")
     args = ap.parse_args(argv)
     out = Path(args.out)
     rows_file = out / "fig1_rows.jsonl"
+    if args.n500:
+        n500(out)
     rows = [json.loads(ln) for ln in rows_file.read_text().splitlines()] \
         if rows_file.is_file() else []
-    if not args.report:
+    if not args.report and not args.n500:
         done = {(r["mu"], r["seed"]) for r in rows}
         todo = [(mu, s) for s in args.seeds for mu in args.mu if (mu, s) not in done]
         # packings already jammed first (sampling only), then the jams, seeds outer

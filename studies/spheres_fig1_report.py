@@ -120,20 +120,61 @@ def determinate_rule(groups) -> str:
                f"{max(groups):g} yet)") + f" | **{verdict}** |")
 
 
-def count_rule(rows) -> str:
+def count_rule(rows, n: int = 100, rule: str = "5") -> str:
+    """Rule 5 (and 5', the same rule on the n = 500 rows) over 0 < mu <= 0.01."""
     small = [r for r in rows if 0 < r["mu"] <= 0.01]
+    claim = (f"| {rule} | 3N_c - 6n ~ N_c and dim S ~ N_c at small mu (0 < mu <= 0.01)"
+             + ("" if n == 100 else f", n = {n}") + " | ")
     if len(small) < 3:
-        return (f"| 5 | 3N_c - 6n ~ N_c and dim S ~ N_c at small mu (0 < mu <= 0.01) | "
-                f"{len(small)} packings (< 3) | **not decidable** |")
-    deg = np.array([r["count_3Nc_minus_6n"] / r["n_contacts"] for r in small])
-    dim = np.array([r["dim_S"] / r["n_contacts"] for r in small])
-    plates = np.array([r["dim_S"] / r["Nc_minus_2_plates"] for r in small])
+        return claim + f"{len(small)} packings (< 3) | **not decidable** |"
+    deg, dim, bulk, _ = count_ratios(small)
     verdict = "reproduced" if abs(deg.mean() - 1) <= 0.1 else "refuted"
-    return (f"| 5 | 3N_c - 6n ~ N_c and dim S ~ N_c at small mu (0 < mu <= 0.01) | "
-            f"(3N_c - 6n) / N_c = {deg.mean():.3f} ± {deg.std(ddof=1):.3f}; dim S / N_c = "
-            f"{dim.mean():.3f} ± {dim.std(ddof=1):.3f}; dim S / (N_c - 2 (N_bottom + N_top)) = "
-            f"{plates.mean():.3f} ± {plates.std(ddof=1):.3f} ({len(small)} packings) | "
-            f"**{verdict}** |")
+    return (claim + f"(3N_c - 6n) / N_c = {deg.mean():.3f} ± {deg.std(ddof=1):.3f}; "
+            f"dim S / N_c = {dim.mean():.3f} ± {dim.std(ddof=1):.3f}; dim S / (N_c - 2 "
+            f"(N_bottom + N_top)) = {bulk.mean():.3f} ± {bulk.std(ddof=1):.3f} "
+            f"({len(small)} packings) | **{verdict}** |")
+
+
+def count_ratios(rows):
+    """(3N_c - 6n) / N_c, dim S / N_c, dim S / (N_c - 2 (N_bottom + N_top)) and the
+    plates' share 2 (N_bottom + N_top) / N_c per row (arrays)."""
+    nc = np.array([r["n_contacts"] for r in rows], float)
+    plates = np.array([r["n_contacts"] - r["Nc_minus_2_plates"] for r in rows], float)
+    return (np.array([r["count_3Nc_minus_6n"] for r in rows]) / nc,
+            np.array([r["dim_S"] for r in rows]) / nc,
+            np.array([r["dim_S"] for r in rows]) / (nc - plates), plates / nc)
+
+
+def n500_section(rows100, rows500) -> str:
+    """Rule 5' at n = 500: the rows per packing, and the ratios at n = 100 and 500."""
+    if not rows500:
+        return ""
+    head = ("## Rule 5' at n = 500 (issue 43's packings, paper3d_certified; whole problem, "
+            "dim S exact)\n\n| packing | n (non-rattlers) | N_c | 3N_c − 6n | rank A | dim S | "
+            "(3N_c − 6n) / N_c | dim S / N_c | plates' share 2 (N_b + N_t) / N_c | dim S / "
+            "(N_c − 2 (N_b + N_t)) | CPU s |\n|---|---|---|---|---|---|---|---|---|---|---|\n")
+    lines = []
+    for r in sorted(rows500, key=lambda r: (r["mu"], r["seed"])):
+        deg, dim, bulk, share = (float(a[0]) for a in count_ratios([r]))
+        lines.append(f"| mu = {r['mu']:g}, seed {r['seed']} | {r['n_interior']} | "
+                     f"{r['n_contacts']} | {r['count_3Nc_minus_6n']} | {r['rank_A']} | "
+                     f"{r['dim_S']} | {deg:.3f} | {dim:.3f} | {share:.3f} | {bulk:.3f} | "
+                     f"{r['cpu_seconds']:.1f} |")
+    cmp = ["", "| set | packings | (3N_c − 6n) / N_c | dim S / N_c | dim S / (N_c − "
+           "plates) | plates' share |", "|---|---|---|---|---|---|"]
+    sets = [("n = 100, 0 < mu <= 0.01 (rule 5)", rows100, lambda m: 0 < m <= 0.01),
+            ("n = 100, mu = 0.01", rows100, lambda m: m == 0.01),
+            ("n = 500, mu = 0.01 (rule 5')", rows500, lambda m: m == 0.01),
+            ("n = 100, mu = 0 (beside)", rows100, lambda m: m == 0),
+            ("n = 500, mu = 0 (beside)", rows500, lambda m: m == 0)]
+    for name, rows, keep in sets:
+        rs = [r for r in rows if keep(r["mu"])]
+        if rs:
+            cols = " | ".join(f"{a.mean():.3f} ± {a.std(ddof=1) if a.size > 1 else 0:.3f}"
+                              for a in count_ratios(rs))
+            cmp.append(f"| {name} | {len(rs)} | {cols} |")
+    return head + "\n".join(lines) + "\n" + "\n".join(cmp) + \
+        "\n\n(mean ± sd over packings; plates' share = 2 (N_bottom + N_top) / N_c)\n"
 
 
 def z_rule(groups) -> str:
@@ -193,41 +234,52 @@ PLANNED_TOP = 10.0       # the largest mu of the design: rules 2-4 need the rang
 ETA_RULES = ("1", "2", "3")      # claims about S, judged on the billiard walk's samples
 
 
-def verdict_rows(rows) -> list[str]:
-    """The markdown rows "| rule | claim | measured | **verdict** |" of the six rules."""
+def verdict_rows(rows, rows500=()) -> list[str]:
+    """The markdown rows "| rule | claim | measured | **verdict** |" of the six rules and,
+    with n = 500 rows, rule 5'."""
     groups = by_mu(rows)
     flat = [r for rs in groups.values() for r in rs]
     return [slope_rule(flat), *maximum_rules(groups), determinate_rule(groups),
-            count_rule(flat), z_rule(groups)]
+            count_rule(flat), *([count_rule(rows500, 500, "5'")] if rows500 else []),
+            z_rule(groups)]
 
 
-def write_verdicts(rows, out: Path) -> None:
+def write_verdicts(rows, rows500, out: Path) -> None:
     """OUT/verdicts.json and OUT/REPORT.md through the studies' report (so that
     ``forcespace study report ... studies/results/spheres_fig1`` shows these rows)."""
     from forcespace_studies.report import Verdict, write_section
 
     verdicts = []
-    for line in verdict_rows(rows):
+    for line in verdict_rows(rows, rows500):
         rule, claim, ours, verdict = [c.strip() for c in line.strip("|").split(" | ")]
-        verdicts.append(Verdict("spheres_fig1", f"spheres (n = 100): {claim}", ours,
+        n = 500 if rule == "5'" else 100
+        verdicts.append(Verdict("spheres_fig1", f"spheres (n = {n}): {claim}", ours,
                                 verdict.strip("*"),
                                 sampler="billiard" if rule in ETA_RULES else "",
                                 rule=f"rule {rule} of studies/spheres_fig1.py"))
     n = len(by_mu(rows))
     text = (f"100 spheres (paper3d scaled to n = 100), {len(rows)} packings at {n} values of "
             "mu; eta of the whole problem by the uniform billiard walk on the conic S; dim "
-            "S exact (Clarabel). The n >= 500 set is issue 43's, not ready this session. "
+            "S exact (Clarabel). Rule 5' (pre-declared): rule 5 on issue 43's 500-sphere "
+            "packings at mu = 0.01 (analysis only). "
             "Table: spheres_fig1.md.")
     write_section(out, "spheres_fig1", "Spheres: the paper's Fig. 1 in 3-D", text, verdicts,
                   {}, ["fig1.png"])
 
 
 def write_report(rows, out: Path) -> None:
+    """OUT/spheres_fig1.md, fig1.png/pdf, verdicts.json, REPORT.md from the n = 100 rows
+    and, if there, OUT/rule5_n500_rows.jsonl (rule 5')."""
+    import json
+    f500 = out / "rule5_n500_rows.jsonl"
+    rows500 = [json.loads(ln) for ln in f500.read_text().splitlines()] if f500.is_file() \
+        else []
     groups = by_mu(rows)
-    verdicts = ["| rule | claim | measured (n = 100 spheres) | verdict |", "|---|---|---|---|",
-                *verdict_rows(rows)]
+    verdicts = ["| rule | claim | measured (n = 100 spheres unless said) | verdict |",
+                "|---|---|---|---|", *verdict_rows(rows, rows500)]
     figure(groups, out / "fig1.png")
     (out / "spheres_fig1.md").write_text(
         "# Spheres' Fig. 1 (n = 100; rules in studies/spheres_fig1.py)\n\n" + table(groups)
-        + "\n" + "\n".join(verdicts) + "\n\n![fig1.png](fig1.png)\n")
-    write_verdicts(rows, out)
+        + "\n" + "\n".join(verdicts) + "\n\n" + n500_section(rows, rows500)
+        + "\n![fig1.png](fig1.png)\n")
+    write_verdicts(rows, rows500, out)
