@@ -188,30 +188,67 @@ def z_rule(groups) -> str:
             f"{zt:.3f} at mu = {top:g} | **{verdict}** |")
 
 
-def figure(groups, path: Path) -> None:
+def figure(groups, path: Path, rows500=(), disks=None) -> None:
+    """fig1.png/pdf: eta and z against mu (the 2-D disks' eta beside, if ``disks``: rows
+    of ``results/fig1/fig1_by_mu.csv``), dim S and 3N_c - 6n against N_c, and the ratios
+    against the plates' share at n = 100 and (rule 5') n = 500."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, (a, b, c) = plt.subplots(1, 3, figsize=(14, 4.2))
+    fig, (a, b, c, d) = plt.subplots(1, 4, figsize=(19, 4.6))
     mus = [m for m in groups if m > 0]
-    for ax, key, label in ((a, "eta", r"$\eta$ (uniform, whole packing)"),
-                           (b, "z", "z (non-rattlers)")):
+    for ax, key in ((a, "eta"), (b, "z")):
         for m in mus:
-            v = [r[key] for r in groups[m]]
+            v = [r[key] for r in groups[m] if key != "eta" or r[key] > 0]
             ax.plot([m] * len(v), v, ".", color="0.6")
         st = [mean_se([r[key] for r in groups[m]]) for m in mus]
         ax.errorbar(mus, [s[0] for s in st], [s[1] if np.isfinite(s[1]) else 0 for s in st],
-                    fmt="o-", color="C0", label="mean ± s.e.")
+                    fmt="o-", color="C0", capsize=3,
+                    label="spheres n = 100: mean ± s.e." + (" (η = 0 included)"
+                                                           if key == "eta" else ""))
         ax.set_xscale("log")
         ax.set_xlabel(r"friction coefficient $\mu$")
-        ax.set_ylabel(label)
-        ax.legend()
-    if any(r["eta"] > 0 for m in mus for r in groups[m]):
-        a.set_yscale("log")       # determinate packings (eta = 0) are left off this axis
+    eta_panel(a, groups, mus, disks)
+    b.set_ylabel("z: contacts per non-rattler sphere")
     if 0.0 in groups:
         b.axhline(np.mean([r["z"] for r in groups[0.0]]), color="C1", ls="--",
-                  label=r"$\mu = 0$")
-        b.legend()
+                  label=r"spheres, $\mu = 0$")
+    b.legend(fontsize=8)
+    dim_panel(c, groups)
+    ratio_panel(d, [r for rs in groups.values() for r in rs], list(rows500))
+    fig.suptitle("Spheres (paper3d, n = 100; rule 5': paper3d_certified, n = 500): "
+                 "the paper's Fig. 1 in 3-D")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    fig.savefig(path.with_suffix(".pdf"))
+    plt.close(fig)
+
+
+def eta_panel(ax, groups, mus, disks) -> None:
+    """Log axis: determinate packings (eta = 0) drawn as triangles on the bottom edge;
+    the 2-D disks' mean eta (hit-and-run, 95 % band) beside."""
+    if disks:
+        m2 = np.array([float(r["mu"]) for r in disks])
+        e2 = np.array([float(r["eta_hit_and_run_mean"]) for r in disks])
+        lo = np.array([float(r["eta_hit_and_run_lo"]) for r in disks])
+        hi = np.array([float(r["eta_hit_and_run_hi"]) for r in disks])
+        keep = m2 > 0
+        ax.plot(m2[keep], e2[keep], "s--", color="0.35", ms=4,
+                label="2-D disks (fig1, 200 disks, middle slice): mean")
+        ax.fill_between(m2[keep], np.maximum(lo[keep], ETA_AXIS[0]), hi[keep], color="0.8",
+                        alpha=0.6,
+                        label="2-D disks: 95 % bootstrap band")
+    ax.set_yscale("log")
+    ax.set_ylim(ETA_AXIS)           # a mean whose s.e. reaches 0 is cut at the bottom edge
+    zero = [m for m in mus for r in groups[m] if r["eta"] == 0]
+    if zero:
+        ax.plot(zero, [ETA_AXIS[0] * 1.6] * len(zero), "v", color="C3", ms=8,
+                label=r"spheres: determinate (dim S = 0, $\eta$ = 0)")
+    ax.set_ylabel(r"$\eta$ (dimensionless; uniform sampling of S)")
+    ax.legend(fontsize=7, loc="upper left")
+
+
+def dim_panel(c, groups) -> None:
     for k, (m, rs) in enumerate(groups.items()):
         c.plot([r["n_contacts"] for r in rs], [r["dim_S"] for r in rs], "o", color=f"C{k}",
                label=rf"$\mu$ = {m:g}")
@@ -220,16 +257,30 @@ def figure(groups, path: Path) -> None:
     c.plot([], [], "o", mfc="none", color="0.3", label=r"$3N_c - 6n$ (open)")
     lim = max(r["n_contacts"] for rs in groups.values() for r in rs)
     c.plot([0, lim], [0, lim], "k:", label=r"dim S = $N_c$")
-    c.set_xlabel(r"contacts $N_c$ (whole problem)")
+    c.set_xlabel(r"contacts $N_c$ (whole problem, n = 100)")
     c.set_ylabel(r"dim S (exact, filled); $3N_c - 6n$ (open)")
     c.legend(fontsize=7, ncol=2)
-    fig.suptitle("Spheres (n = 100, paper3d): the paper's Fig. 1")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    fig.savefig(path.with_suffix(".pdf"))
-    plt.close(fig)
 
 
+def ratio_panel(d, rows100, rows500) -> None:
+    """Rule 5 and 5': dim S / N_c and (3N_c - 6n) / N_c at 0 < mu <= 0.01 against the
+    plates' share 2 (N_bottom + N_top) / N_c, n = 100 and n = 500."""
+    for rows, n, mk in ((rows100, 100, "o"), (rows500, 500, "D")):
+        small = [r for r in rows if 0 < r["mu"] <= 0.01]
+        if not small:
+            continue
+        deg, dim, _, share = count_ratios(small)
+        d.plot(share, dim, mk, color="C0", label=f"dim S / $N_c$, n = {n}")
+        d.plot(share, deg, mk, mfc="none", color="C1", label=f"$(3N_c - 6n) / N_c$, n = {n}")
+    d.axhline(1, color="k", ls=":", label="the paper's count: 1")
+    d.axhspan(0.9, 1.1, color="0.9", label="rule 5: within 0.1 of 1")
+    d.set_xlim(left=0)
+    d.set_xlabel(r"plates' share of the contacts $2(N_{bottom} + N_{top}) / N_c$")
+    d.set_ylabel(r"ratio at $0 < \mu \leq 0.01$")
+    d.legend(fontsize=7, loc="lower left")
+
+
+ETA_AXIS = (1e-5, 3.0)   # the eta axis of the figure (log)
 PLANNED_TOP = 10.0       # the largest mu of the design: rules 2-4 need the range to it
 ETA_RULES = ("1", "2", "3")      # claims about S, judged on the billiard walk's samples
 
@@ -267,6 +318,13 @@ def write_verdicts(rows, rows500, out: Path) -> None:
                   {}, ["fig1.png"])
 
 
+def disks_fig1(d: Path):
+    """The 2-D disks' fig1 per mu (``fig1_by_mu.csv``) if that study's results are there."""
+    import csv
+    f = d / "fig1_by_mu.csv"
+    return list(csv.DictReader(f.open())) if f.is_file() else None
+
+
 def write_report(rows, out: Path) -> None:
     """OUT/spheres_fig1.md, fig1.png/pdf, verdicts.json, REPORT.md from the n = 100 rows
     and, if there, OUT/rule5_n500_rows.jsonl (rule 5')."""
@@ -277,7 +335,7 @@ def write_report(rows, out: Path) -> None:
     groups = by_mu(rows)
     verdicts = ["| rule | claim | measured (n = 100 spheres unless said) | verdict |",
                 "|---|---|---|---|", *verdict_rows(rows, rows500)]
-    figure(groups, out / "fig1.png")
+    figure(groups, out / "fig1.png", rows500, disks_fig1(out.parent / "fig1"))
     (out / "spheres_fig1.md").write_text(
         "# Spheres' Fig. 1 (n = 100; rules in studies/spheres_fig1.py)\n\n" + table(groups)
         + "\n" + "\n".join(verdicts) + "\n\n" + n500_section(rows, rows500)
