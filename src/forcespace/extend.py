@@ -67,6 +67,8 @@ _SURFACE = {
     "affine_hull": ("linalg", "affine_hull"), "rank": ("linalg", "rank"),
     "sphere_problem_for": ("model.sphere_problem", "sphere_problem_for"),
     "pyramid_fn_ranges": ("space.conic", "pyramid_fn_ranges"),
+    "conic_fn_range": ("space.conic", "fn_range"), "conic_ft_range": ("space.conic", "ft_range"),
+    "conic_ft_range_ascent": ("space.conic", "ft_range_ascent"),
     # sampling
     "by_chain": ("sampling.diagnostics", "by_chain"),
     # measures

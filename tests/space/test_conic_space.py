@@ -178,3 +178,63 @@ def test_inscribed_pyramids_converge_to_the_cones_ranges():
         assert gap <= 3 * (1 - np.cos(np.pi / k))
         gaps.append(gap)
     assert gaps[0] > gaps[1] > gaps[2] > 0
+
+
+def tilted_ellipse():
+    """Two contacts: f_t of the second in its unit disc (fn = 1, mu = 1), f_t of the first
+    = c + M f_t(second) (fn = 10, its cone never binding): the projection of S onto the
+    first's tangent plane is the ellipse c + M (unit disc), M a rotation by 30 degrees of
+    diag(2, 0.5), c = (0.2, 0.1). Returns the problem and max |f_t| of the first by dense
+    sampling of the ellipse's boundary (independent of the SOCPs)."""
+    rot = np.array([[np.cos(np.pi / 6), -np.sin(np.pi / 6)], [np.sin(np.pi / 6), np.cos(np.pi / 6)]])
+    M, c = rot @ np.diag([2.0, 0.5]), np.array([0.2, 0.1])
+    rows = np.zeros((4, 6))
+    rows[0, 0] = rows[1, 3] = 1.0
+    rows[2, 1], rows[2, [4, 5]] = 1.0, -M[0]
+    rows[3, 2], rows[3, [4, 5]] = 1.0, -M[1]
+    t = np.linspace(0, 2 * np.pi, 2_000_001)
+    edge = c[:, None] + M @ np.vstack([np.cos(t), np.sin(t)])
+    return abstract(rows, [10.0, 1.0, *c], [1.0, 1.0]), float(np.hypot(*edge).max())
+
+
+def test_max_tangential_force_over_an_ellipse_none_of_the_start_directions_reaches():
+    # the farthest point of the ellipse is at no multiple of 90 degrees: the bounds must
+    # refine towards it (after the 4 starting support points alone it is missed by > 0.01)
+    prob, truth = tilted_ellipse()
+    unit = prob.scaled(1.0)
+    faces, _ = conic.facial_reduction(unit)
+    lo, hi = conic.ft_range(unit, faces, 0)
+    assert lo == pytest.approx(0.0, abs=1e-7)       # the origin is inside the ellipse
+    assert hi == pytest.approx(truth, abs=2e-7)
+    assert conic.ft_range(unit, faces, 0, max_socps=4)[1] < truth - 0.01
+    # the upper bound mu fn_max closes the range at once where a known point reaches it
+    assert conic.ft_range(unit, faces, 1, fn_max=1.0, points=[np.array([0.6, 0.8])]) \
+        == pytest.approx((0.0, 1.0), abs=1e-7)
+
+
+def test_outer_polygon_of_four_support_lines_is_the_square():
+    v = conic.outer_vertices(np.arange(4) * np.pi / 2, np.ones(4))
+    np.testing.assert_allclose(v, [[1, 1], [-1, 1], [-1, -1], [1, -1]], atol=1e-12)
+
+
+def test_max_tangential_force_bounds_agree_with_the_support_ascent_on_a_packing():
+    # the certified bounds against the first method (a local ascent from 4 directions) on
+    # a jammed packing's contacts: equal to FT_MAX_TOL, never below it by more
+    from pathlib import Path
+
+    from forcespace.io.packing_file import read_packing
+    from forcespace.model.sphere_problem import sphere_full_problem
+    prob = sphere_full_problem(read_packing(Path(__file__).parents[1] / "data"
+                                            / "quick3d_mu0.3.h5"))
+    unit = prob.scaled(1.0 / prob.force_scale)
+    faces, _ = conic.facial_reduction(unit)
+    S = ForceSpace().compute(prob)
+    moving = np.flatnonzero(np.linalg.norm(S.affine_basis.reshape(prob.n_contacts, 3, -1),
+                                           axis=(1, 2)) > 1e-9)
+    for j in np.random.default_rng(1).choice(moving, 4, replace=False):
+        points = []
+        fn = conic.fn_range(unit, faces, j, points)
+        new = conic.ft_range(unit, faces, j, fn[1], points)
+        old = conic.ft_range_ascent(unit, faces, j)
+        assert new[0] == old[0]
+        assert new[1] == pytest.approx(old[1], abs=conic.FT_MAX_TOL)

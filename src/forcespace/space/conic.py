@@ -304,44 +304,119 @@ def conic_centre(unit: SphereStaticsProblem, faces: Faces, N, xa):
     return z[:3 * m], float(z[3 * m])
 
 
-def fn_range(unit: SphereStaticsProblem, faces: Faces, j: int):
-    """(min, max) of fn of contact j over S (max inf where S is unbounded along it)."""
+def fn_range(unit: SphereStaticsProblem, faces: Faces, j: int, points: list | None = None):
+    """(min, max) of fn of contact j over S (max inf where S is unbounded along it);
+    ``points``, a list: the tangential force (2,) of j at both optima is appended."""
     m = unit.n_contacts
-    lo = socp(unit, faces, unit_vector(3 * m, 3 * j))[3 * j]
+    lo = socp(unit, faces, unit_vector(3 * m, 3 * j))
     hi = socp(unit, faces, unit_vector(3 * m, 3 * j, -1.0))
-    return lo, (np.inf if hi is None else hi[3 * j])
+    if points is not None:
+        points += [z[3 * j + 1:3 * j + 3] for z in (lo, hi) if z is not None]
+    return lo[3 * j], (np.inf if hi is None else hi[3 * j])
 
 
-def ft_range(unit: SphereStaticsProblem, faces: Faces, j: int, starts: int = 4,
-             steps: int = 40):
-    """(min, max) of |f_t| of contact j over S.
+FT_MAX_TOL = 1e-7       # [<Fn>] max |f_t| is certified when its upper and lower bounds
+                        # differ by at most this (SOCP points are good to ~1e-10 <Fn>, ~1e-5
+                        # along a cone's tangency)
+FT_MAX_SOCPS = 60       # support SOCPs at most per contact (then the best point found)
 
-    min: one SOCP (|f_t| <= t, minimise t). max: the largest norm over the projection C
-    of S onto the tangent plane of j, a convex set in 2-D, by support ascent: the
-    support point p of C in the direction u is at least as far out as any point of C
-    along u, so |p(angle of p)| >= |p|; from ``starts`` directions, each to a fixed point
-    (|p| stalls to 1e-12 <Fn>). A local maximum of |f_t|: exact where C has no second
-    local maximum (a disc, a lens, a segment); inf where S is unbounded along f_t."""
+
+def ft_min(unit: SphereStaticsProblem, faces: Faces, j: int) -> float:
+    """min |f_t| of contact j over S: one SOCP (|f_t| <= t, minimise t)."""
     m = unit.n_contacts
-    cols = [3 * j + 1, 3 * j + 2]
-    soc = (sp.csr_matrix(([-1.0, -1.0, -1.0], ([0, 1, 2], [3 * m, *cols])),
+    soc = (sp.csr_matrix(([-1.0, -1.0, -1.0], ([0, 1, 2], [3 * m, 3 * j + 1, 3 * j + 2])),
                          shape=(3, 3 * m + 1)), np.zeros(3), "soc")
-    lo = float(socp(unit, faces, unit_vector(3 * m + 1, 3 * m), rows=[soc])[3 * m])
+    return float(socp(unit, faces, unit_vector(3 * m + 1, 3 * m), rows=[soc])[3 * m])
+
+
+def support_point(unit: SphereStaticsProblem, faces: Faces, j: int, angle: float):
+    """The point p (2,) of the projection C of S onto contact j's tangent plane that is
+    farthest along (cos angle, sin angle) (one SOCP), or None where C is unbounded."""
+    m = unit.n_contacts
+    q = np.zeros(3 * m)
+    q[3 * j + 1], q[3 * j + 2] = -np.cos(angle), -np.sin(angle)
+    z = socp(unit, faces, q)
+    return None if z is None else z[3 * j + 1:3 * j + 3]
+
+
+def outer_vertices(angles, support) -> np.ndarray:
+    """(k, 2): the vertices of the polygon {u : e_i . u <= support_i} (e_i = (cos, sin) of
+    ``angles`` (k,), sorted, consecutive gaps below pi): vertex i where lines i and i + 1
+    meet."""
+    a1, a2 = angles, np.roll(angles, -1)
+    h1, h2 = support, np.roll(support, -1)
+    det = np.sin(a2 - a1)
+    return np.column_stack([(h1 * np.sin(a2) - h2 * np.sin(a1)) / det,
+                            (np.cos(a1) * h2 - np.cos(a2) * h1) / det])
+
+
+def ft_range(unit: SphereStaticsProblem, faces: Faces, j: int, fn_max: float | None = None,
+             points=(), tol: float = FT_MAX_TOL, max_socps: int = FT_MAX_SOCPS):
+    """(min, max) of |f_t| of contact j over S [<Fn>, the unit problem's forces].
+
+    min: :func:`ft_min`. max: the largest norm over the projection C of S onto the tangent
+    plane of j (convex, 2-D), bracketed: the support points p_i of C in directions e_i
+    lie in C (max |f_t| >= max |p_i|), C lies in the polygon {e_i . u <= e_i . p_i} and in
+    the disc |u| <= mu fn_max (max |f_t| <= the smaller of its largest vertex norm and
+    mu fn_max). Starting from 4 directions, each new one points at the polygon's farthest
+    vertex, until the bounds meet to ``tol`` (a global maximum, unlike a local ascent);
+    ``points`` (k, 2): tangential forces at points of S already known (e.g. where fn is
+    largest: when one has |f_t| = mu fn_max, no support SOCP runs). inf where S is
+    unbounded along f_t; after ``max_socps`` support SOCPs, the lower bound."""
+    lo = ft_min(unit, faces, j)
+    if faces.kind[j] == APEX or unit.mu[j] == 0:
+        return lo, lo
+    cap = np.inf if fn_max is None else unit.mu[j] * fn_max
+    best = max([lo] + [float(np.hypot(*p)) for p in points])
+    if cap - best <= tol:
+        return lo, min(best, cap)
+    angles, support = np.arange(4) * np.pi / 2, np.zeros(4)
+    for i, a in enumerate(angles):
+        p = support_point(unit, faces, j, a)
+        if p is None:
+            return lo, np.inf
+        support[i], best = np.cos(a) * p[0] + np.sin(a) * p[1], max(best, np.hypot(*p))
+    for _ in range(max_socps - 4):
+        v = outer_vertices(angles, support)
+        norms = np.hypot(v[:, 0], v[:, 1])
+        k = int(np.argmax(norms))
+        if min(norms[k], cap) - best <= tol:
+            break
+        a = np.arctan2(v[k, 1], v[k, 0]) % (2 * np.pi)
+        if np.min(np.abs(np.angle(np.exp(1j * (angles - a))))) < 1e-9:  # its own line
+            a = angles[k] + 0.5 * ((angles[(k + 1) % angles.size] - angles[k]) % (2 * np.pi))
+        p = support_point(unit, faces, j, a)
+        if p is None:
+            return lo, np.inf
+        best = max(best, float(np.hypot(*p)))
+        i = np.searchsorted(angles, a % (2 * np.pi))
+        angles = np.insert(angles, i, a % (2 * np.pi))
+        support = np.insert(support, i, np.cos(a) * p[0] + np.sin(a) * p[1])
+    return lo, best
+
+
+def ft_range_ascent(unit: SphereStaticsProblem, faces: Faces, j: int, starts: int = 4,
+                    steps: int = 40):
+    """(min, max) of |f_t| of contact j over S by support ascent (the first method, kept as
+    the reference :func:`ft_range` is checked against): the support point p of C in the
+    direction u is at least as far out as any point of C along u, so |p(angle of p)| >=
+    |p|; from ``starts`` directions, each to a fixed point (|p| stalls to 1e-12 <Fn>). A
+    local maximum of |f_t|: exact where C has no second local maximum."""
+    lo = ft_min(unit, faces, j)
     if faces.kind[j] == APEX or unit.mu[j] == 0:
         return lo, lo
     best = lo
     for angle in np.arange(starts) * 2 * np.pi / starts:
         last = -1.0
         for _ in range(steps):
-            z = socp(unit, faces, -np.cos(angle) * unit_vector(3 * m, cols[0])
-                     - np.sin(angle) * unit_vector(3 * m, cols[1]))
-            if z is None:
+            p = support_point(unit, faces, j, angle)
+            if p is None:
                 return lo, np.inf
-            norm = float(np.hypot(z[cols[0]], z[cols[1]]))
+            norm = float(np.hypot(*p))
             best = max(best, norm)
             if norm <= last + 1e-12 or norm == 0.0:
                 break
-            last, angle = norm, np.arctan2(z[cols[1]], z[cols[0]])
+            last, angle = norm, np.arctan2(p[1], p[0])
     return lo, best
 
 
@@ -416,7 +491,9 @@ def analyze_conic(unit: SphereStaticsProblem, out: dict, ranges: bool, centre: b
         fn_rng = np.repeat(xa[0::3, None], 2, axis=1)
         ft_rng = np.repeat(np.hypot(xa[1::3], xa[2::3])[:, None], 2, axis=1)
         for j in np.flatnonzero(moving):
-            fn_rng[j], ft_rng[j] = fn_range(unit, faces, j), ft_range(unit, faces, j)
+            points = []
+            fn_rng[j] = fn_range(unit, faces, j, points)
+            ft_rng[j] = ft_range(unit, faces, j, fn_rng[j, 1], points)
         out["fn_range"], out["ft_range"] = fn_rng, ft_rng
     if out["bounded"] and centre:
         stage("centre")

@@ -12,6 +12,8 @@ slack larger than ``tol`` <Fn> (``config.IMPLICIT_TOL``).
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from .. import config
@@ -87,9 +89,15 @@ class ForceSpace(Computed):
         r["force_scale"] = s
         with progress_bar(total=100, desc="analysis of S", unit="%",
                           disable=not self.progress) as bar:
-            done = []
+            done, cpu = [], r.setdefault("stage_cpu_s", {})
+            clock = [time.process_time(), "set-up"]
 
-            def stage(name):
+            def stage(name=None):
+                now = time.process_time()
+                cpu[clock[1]] = cpu.get(clock[1], 0.0) + now - clock[0]
+                clock[:] = [now, name]
+                if name is None:
+                    return
                 bar.update(round(100 * sum(STAGES[n] for n in done)) - bar.n)
                 bar.set_postfix_str(name)
                 done.append(name)
@@ -98,8 +106,10 @@ class ForceSpace(Computed):
                         tol=max(self.tol, CONE_FACE_TOL) if conic else self.tol, stage=stage,
                         **({} if conic else {"varying": self.varying_test}))
             except NumericalError as exc:
+                stage()
                 self._finish(2, str(exc))
             else:
+                stage()
                 self._finish(0, "analysis complete")
                 bar.update(100 - bar.n)
         for name in _SCALED:
@@ -191,6 +201,12 @@ class ForceSpace(Computed):
         return None if c is None else int(c.size)
 
     @property
+    def stage_cpu_s(self) -> dict:
+        """CPU seconds (this process) of each stage of the analysis, in order ("set-up":
+        before the first, e.g. the rank of A)."""
+        return self._get("stage_cpu_s")
+
+    @property
     def fn_range(self) -> np.ndarray | None:
         """(m, 2) min and max of fn over S [F0] (``ranges=True``; else None); an unbounded
         side is +-inf."""
@@ -199,7 +215,7 @@ class ForceSpace(Computed):
     @property
     def ft_range(self) -> np.ndarray | None:
         """(m, 2) min and max of ft over S [F0] (``ranges=True``; else None); spheres: of
-        |f_t| (the max by support ascent, :func:`forcespace.space.conic.ft_range`)."""
+        |f_t| (the max certified by support polygons, :func:`forcespace.space.conic.ft_range`)."""
         return self._get("ft_range")
 
     @property
