@@ -105,7 +105,7 @@ def measure(ladder: Path, rec: dict, rerun: bool) -> dict:
     return dict(row, source=source,
                 comparable=True, relative_distance=d.relative,
                 absolute_distance_F0=d.absolute, force_scale_F0=prob.force_scale,
-                nearest_violation=d.violation, n_contacts=prob.n_contacts, dim_S=S.dim,
+                nearest_violation=d.max_violation, n_contacts=prob.n_contacts, dim_S=S.dim,
                 max_overlap=soft.max_overlap(), accuracy=v["accuracy"],
                 residual_scale=v["residual_scale"], overlap_scale=v["overlap_scale"],
                 inside_S=bool(v["inside_S"]) and row["converged"],
@@ -183,8 +183,13 @@ def judge(rows) -> tuple[list, dict]:
                      f"force-balance residual), the adapters' verdict (issue 25); every one "
                      f"of >= {MIN_PACKINGS} packings"),
     ]
+    again = [abs(r["relative_distance"] - r["stored_relative_distance"])
+             / r["stored_relative_distance"] for r in rows if r["source"] != "stored"
+             and r["relative_distance"] and r["stored_relative_distance"]]
     numbers = {"trend": t, "stiffest": {"entered": len(top), "inside": len(inside),
                                         "distance_over_residual": ratios},
+               "measured_again": {"runs": len(again),
+                                  "largest_relative_change_from_stored": max(again, default=0)},
                "packings_in_trend": [f"{a}/{b}" for a, b in groups]}
     return verdicts, numbers
 
@@ -245,7 +250,8 @@ def figure(rows, path: Path) -> None:
         mark = "o" if rr[0]["ladder"] == "liggghts_ladder3d" else "s"
         for a, y in ((ax, d), (bx, d / res)):
             a.plot(K, y, "-", color=cmap(i % 10), lw=1, alpha=0.7)
-            a.plot(K[ok], y[ok], mark, color=cmap(i % 10), label=label(rr[0]))
+            a.plot(K[ok], y[ok], mark, color=cmap(i % 10),
+                   label=label(rr[0]) if a is ax else None)
             a.plot(K[~ok], y[~ok], mark, mfc="none", color=cmap(i % 10))
     Kl = np.array([1e3, 1e7])
     ax.plot(Kl, 1e-1 * (Kl / 1e3) ** -1, "k:", lw=1, label="∝ 1/K")
@@ -259,7 +265,7 @@ def figure(rows, path: Path) -> None:
            title="against the soft code's own residual")
     ax.legend(fontsize=7, loc="lower left", title="filled: converged; open: not",
               title_fontsize=7)
-    bx.legend(fontsize=7, loc="upper right")
+    bx.legend(fontsize=7, loc="lower left")
     save_figure(fig, path, tight=True)
     plt.close(fig)
 
