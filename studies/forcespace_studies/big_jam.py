@@ -5,12 +5,16 @@ CPU time summed over every process that worked on it.
 [--out DIR]`` jams ``SCENE`` scaled to N disks (box as ``forcespace pack --n N
 --scale-box``) at mu = MU, seed S (at mu = 1 the size study's ``solver.tolerance = 1e-8``
 unless ``--set`` says otherwise). The compression checkpoints to
-``DIR/packings/NAME.checkpoint.h5`` every 30 s and on SIGINT/SIGTERM; rerunning the same
-command resumes it. Every process appends one line to ``DIR/NAME.cpu.jsonl`` when it stops
+``DIR/packings/NAME.checkpoint.h5`` every 30 s and on SIGINT (stop it with ``kill -INT
+PID``; a SIGKILL loses up to 30 s of work and this process's CPU log line); rerunning the
+same command resumes it. Every process appends one line to ``DIR/NAME.cpu.jsonl`` when it stops
 (process CPU s, user + sys, one BLAS thread; the steps reached), so the jam's cost is the
-sum of that column. When the jam ends the packing goes to ``DIR/packings/NAME.h5`` and one
-row (cost, steps, how it ended, static residual, z, packing fraction, rattlers) to
-``DIR/rows.jsonl``. ``--status`` prints the CPU so far and the checkpoint's steps, no work.
+sum of that column. When the jam ends the packing goes to ``studies/packings/NAME.h5``
+(``--packings``; the issue's 20 000-disk packings are committed there) and one row (cost, steps, how it ended, static residual, z, packing fraction, rattlers) to
+``DIR/rows.jsonl``. ``--status`` prints the CPU so far and the checkpoint's steps, no work;
+``--status --bench FILE`` also records them as the jam's row (``new`` when SCENE is
+``paper_fast_compaction``, else ``old``) of the section ``compaction`` of FILE (e.g.
+``studies/out/bench.json``): finished (from ``rows.jsonl``) or in progress.
 """
 from __future__ import annotations
 
@@ -75,7 +79,8 @@ def jam(args, out: Path, name: str) -> None:
             fh.write(json.dumps({"cpu_s": time.process_time() - t0, "steps": steps,
                                  "finished": packing is not None,
                                  "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}) + "\n")
-    write_packing(packing, out / "packings" / f"{name}.h5")
+    Path(args.packings).mkdir(parents=True, exist_ok=True)
+    write_packing(packing, Path(args.packings) / f"{name}.h5")
     cpu, processes = cpu_so_far(out / f"{name}.cpu.jsonl")
     m = packing.meta
     row = {"scene": args.scene, "n": args.n, "mu": args.mu, "seed": args.seed, "overrides": overrides,
@@ -87,6 +92,33 @@ def jam(args, out: Path, name: str) -> None:
     print(json.dumps(row))
 
 
+def bench_row(out: Path, name: str, args) -> dict:
+    """The jam's row for bench.json: the finished row of rows.jsonl, else its progress."""
+    rows = [json.loads(x) for x in (out / "rows.jsonl").read_text().splitlines()
+            ] if (out / "rows.jsonl").is_file() else []
+    done = [r for r in rows if name_of(r["scene"], r["n"], r["mu"], r["seed"]) == name]
+    if done:
+        r = done[-1]
+        return {"cpu_s": r["jam_cpu_s"], "steps": r["steps"], "jam_end": r["jam_end"],
+                "z": r["z"], "packing_fraction": r["phi"], "static_residual": r["static_residual"],
+                "cpu_source": f"sum over {r['processes']} processes (forcespace_studies.big_jam)"}
+    cpu, processes = cpu_so_far(out / f"{name}.cpu.jsonl")
+    steps = checkpoint_steps(out / "packings" / f"{name}.checkpoint.h5")
+    return {"cpu_s": cpu, "steps": steps, "jam_end": "not finished (checkpointed, resumes)",
+            "cpu_source": f"sum over {processes} processes so far (forcespace_studies.big_jam)",
+            "as_of": time.strftime("%Y-%m-%dT%H:%MZ", time.gmtime())}
+
+
+def record_bench(path: Path, row: dict, args) -> None:
+    """Merge the jam's row into bench.json's section compaction (atomic)."""
+    from .bench_certificate import SECTIONS, merge
+    which = [k for k, v in SECTIONS["compaction"].items() if v == args.scene]
+    if not which:
+        raise SystemExit(f"big_jam: --bench: scene {args.scene!r} is neither of the compaction "
+                         f"section's {sorted(SECTIONS['compaction'].values())}")
+    merge(path, args.mu, args.n, which[0], row, section="compaction")
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scene")
@@ -95,13 +127,18 @@ def main(argv=None) -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--out", default="studies/results/big_jam")
+    ap.add_argument("--packings", default="studies/packings", help="where the finished packing goes")
     ap.add_argument("--status", action="store_true", help="print CPU so far and steps; no work")
+    ap.add_argument("--bench", type=Path, default=None,
+                    help="with --status: record the jam's row in this bench.json (section compaction)")
     args = ap.parse_args(argv)
     out, name = Path(args.out), name_of(args.scene, args.n, args.mu, args.seed)
     if args.status:
         cpu, processes = cpu_so_far(out / f"{name}.cpu.jsonl")
         steps = checkpoint_steps(out / "packings" / f"{name}.checkpoint.h5")
         print(f"{name}: {cpu:.0f} CPU s over {processes} processes, checkpoint at {steps} steps")
+        if args.bench:
+            record_bench(args.bench, bench_row(out, name, args), args)
         return
     out.mkdir(parents=True, exist_ok=True)
     jam(args, out, name)
