@@ -63,7 +63,7 @@ def jam(args, out: Path, name: str) -> None:
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     from forcespace import load_scene
     from forcespace.extend import Setup, build_packing
-    from forcespace.io.packing_file import write_packing
+    from forcespace import write_packing
     from .size import FULL
     overrides = {**FULL["protocol_by_mu"].get(args.mu, {}), **parse_sets(args.set)}
     scene, _ = load_scene(args.scene).scaled_to(args.n)
