@@ -142,6 +142,13 @@ ROUNDING_CENTRED = 1e-3     # [1] Newton decrement at which the John rounding's 
 LEWIS_CENTRED = 1e-6        # [1] half the squared Newton decrement at which the billiard walk's
                             # Lewis rounding counts its centre as found (exact line search:
                             # 10-15 Newton steps from the Chebyshev centre at dim 1714)
+LEWIS_CENTRED_LARGE = 1e-2  # [1] the same on the large path (SWEEP_MIN_COLUMNS columns and up):
+                            # dim 1714, 0 weight updates: 6 Newton steps instead of 8, John
+                            # excess 5.1681 against 5.1678 (the frame as round)
+LEWIS_UPDATES_LARGE = 0     # [updates] the billiard walk's default Lewis-weight updates on the
+                            # large path (5 below): at dim 1714 the Dikin ellipsoid at the
+                            # analytic centre cost 0.059 CPU s per effective sample against
+                            # 0.051 after 5 updates, which cost 24 CPU s more (sampler_cost.md)
 MAX_GRAM_BYTES = 4e9        # [bytes] largest Gram matrix K = H H^T the billiard walk keeps
                             # (p <= ~22 000 rows); above, rows of K are computed per reflection
 MVE_MAX_ROWS = 1500         # [rows] above: John (Lewis-weight) rounding, not the exact MVE
@@ -168,6 +175,11 @@ STORED_SAMPLE_SLACK = 1e-6  # [1] a stored sample re-checked on reading may viol
 MIN_DRAWS_PER_CHAIN = 100   # [samples] a target-ESS run stops no earlier: ESS estimated from
                             # shorter chains runs high (dim 1344: ESS "100" after 50 draws per
                             # chain was 77 on the longer run)
+BILLIARD_MIN_DRAWS_PER_CHAIN = 25  # [samples] the same for the billiard walk (0.6-0.8 effective
+                            # samples per draw): on prefixes of 6 long runs at dim 228 (4 x 500
+                            # draws) this rule stopped at 160-252 samples, where the long runs'
+                            # own ESS per draw gives 110-182 (never below the target of 100;
+                            # the short-chain estimates were 100-162, i.e. low, not high)
 
 # ---- files ---------------------------------------------------------------------------------
 FORCE_MATCH_TOL = 1e-9      # [<Fn>] an ensemble's jammed forces and its packing's differ by at

@@ -220,7 +220,8 @@ THETAS, MU = [np.pi / 6, np.pi / 5], 0.3
 
 def test_a_run_asked_for_a_target_ess_stops_there_or_says_it_fell_short():
     """Two grooves (dim 2): the billiard walk stops as soon as every tracked statistic
-    has bulk and tail ESS >= 200 and R-hat <= 1.05 (not before 100 draws per chain),
+    has bulk and tail ESS >= 200 and R-hat <= 1.05 (not before
+    config.BILLIARD_MIN_DRAWS_PER_CHAIN draws per chain),
     reproducibly; asked for an ESS its cap cannot reach, it stops at the cap with
     status 1 and says so; max_seconds = 0 stops it at once (status 1)."""
     _, prob = grooves(THETAS, MU)
@@ -228,7 +229,7 @@ def test_a_run_asked_for_a_target_ess_stops_there_or_says_it_fell_short():
     d = run.ensemble.diagnostics
     assert run.success and "converged" in run.message
     assert d["min_ess"] >= 200 and d["max_rhat"] <= config.RHAT_MAX
-    assert 4 * config.MIN_DRAWS_PER_CHAIN <= run.ensemble.n_samples < 20000
+    assert 4 * config.BILLIARD_MIN_DRAWS_PER_CHAIN <= run.ensemble.n_samples < 20000
     again = BilliardWalk(20000, seed=3, target_ess=200).compute(prob)
     assert np.array_equal(again.ensemble.samples, run.ensemble.samples)
     short = BilliardWalk(40, seed=3, target_ess=1e6).compute(prob)
@@ -385,3 +386,74 @@ def test_float32_gram_samples_of_a_paper_slice_are_in_S_and_agree():
     assert abs(e32 / e64 - 1) < 1e-9
     with pytest.raises(Exception, match="gram"):
         BilliardWalk(10, gram="float16")
+
+
+def test_large_path_frame_starts_at_the_interior_point_or_falls_back_to_the_centre(
+        monkeypatch):
+    """Issue 46: on the large path (config.SWEEP_MIN_COLUMNS columns and up; lowered here
+    so that the paper slice, dim S 48, takes it) the frame starts at the analysis'
+    interior point (no Chebyshev-centre LP), strictly inside every moving row; an interior
+    point on a facet (slack 0) is recentred (frame's Chebyshev centre in its own
+    coordinates): the start then has the analysis' inscribed radius."""
+    from paths import PACKINGS
+    from forcespace import read_packing, slice_problem
+    from forcespace.sampling.frame import frame
+    from forcespace.space.force_space import ForceSpace
+
+    prob = slice_problem(read_packing(PACKINGS / "paper_mu0.1.h5"), 28.0)
+    monkeypatch.setattr(config, "SWEEP_MIN_COLUMNS", 0)
+    f = frame(prob)
+    assert f.analysis.centre is None and f.N.shape[1] == 48
+    assert f.s0.min() > config.INTERIOR_STRICT * prob.force_scale
+    np.testing.assert_allclose(f.xc, f.analysis.affine_point, atol=1e-12 * prob.force_scale)
+    an = ForceSpace(ranges=False, centre=False, varying=False).compute(prob)
+    G, _, _ = prob.inequalities()
+    d = f.N @ np.random.default_rng(1).normal(size=f.N.shape[1])
+    Gd, slack = G[f.free] @ d, -(G[f.free] @ an.affine_point)
+    t = np.min(slack[Gd > 0] / Gd[Gd > 0])
+    an._results["affine_point"] = an.affine_point + t * d          # on a facet
+    g = frame(prob, an)
+    assert g.s0.min() > 0 and g.widening == 0.0
+    radius = np.min(g.s0 / np.linalg.norm(g.H0, axis=1))
+    ref = ForceSpace(ranges=False, centre=True, varying=False).compute(prob).radius
+    assert radius == pytest.approx(ref, rel=1e-3)
+
+
+def test_large_path_ensemble_agrees_with_the_default_path(monkeypatch):
+    """Issue 46: the large path (frame at the interior point, Dikin rounding at a looser
+    centre, config.LEWIS_UPDATES_LARGE updates) samples the same S: on the paper slice
+    (dim S 48) per-contact mean forces and eta agree with the default path's within the
+    chains' Monte-Carlo errors, every sample inside S."""
+    from paths import PACKINGS
+    from forcespace import read_packing, slice_problem
+
+    prob = slice_problem(read_packing(PACKINGS / "paper_mu0.1.h5"), 28.0)
+    old = BilliardWalk(20000, seed=5, target_ess=600).compute(prob)
+    monkeypatch.setattr(config, "SWEEP_MIN_COLUMNS", 0)
+    new = BilliardWalk(20000, seed=5, target_ess=600).compute(prob)
+    assert new.walk_info["rounding"]["weight_updates"] == config.LEWIS_UPDATES_LARGE == 0
+    assert old.walk_info["rounding"]["weight_updates"] == 5
+    assert new.ensemble.violations.max() <= config.SAMPLE_VIOLATION
+    Xo = by_chain(old.ensemble.samples, old.ensemble.chains)
+    Xn = by_chain(new.ensemble.samples, new.ensemble.chains)
+    (mo, eo), (mn, en) = _means_and_errors(Xo), _means_and_errors(Xn)
+    vary = Xo.reshape(-1, Xo.shape[2]).std(0) > 1e-6 * prob.force_scale
+    assert vary.sum() > 300
+    z = (mo - mn)[vary] / np.hypot(eo, en)[vary]
+    assert np.abs(z).max() < 4.5, np.abs(z).max()
+    (eta_o, se_o), (eta_n, se_n) = _eta_and_error(Xo), _eta_and_error(Xn)
+    assert abs(eta_o - eta_n) < 4 * np.hypot(se_o, se_n), (eta_o, se_o, eta_n, se_n)
+
+
+def test_the_billiard_walk_checks_its_ess_from_its_own_floor():
+    """Issue 46: a target-ESS run of the billiard walk checks its ESS from
+    config.BILLIARD_MIN_DRAWS_PER_CHAIN draws per chain (the other walks from
+    config.MIN_DRAWS_PER_CHAIN): two grooves, target 100, stop before 100 draws per chain
+    with ESS >= 100, its samples the first ones of the same walk run longer."""
+    _, prob = grooves(THETAS, MU)
+    run = BilliardWalk(20000, seed=3, target_ess=100).compute(prob)
+    n = run.ensemble.n_samples
+    assert "converged" in run.message and run.ensemble.diagnostics["min_ess"] >= 100
+    assert 4 * config.BILLIARD_MIN_DRAWS_PER_CHAIN <= n < 4 * config.MIN_DRAWS_PER_CHAIN
+    longer = BilliardWalk(n + 40, seed=3).compute(prob)
+    assert np.array_equal(longer.ensemble.samples[:n], run.ensemble.samples)

@@ -414,7 +414,8 @@ def default_params(**kw) -> dict:
     48-1714), 50 burn-in trajectories per chain (|w|^2 reaches its stationary spread
     after 2-3 at dim 1714), reflective-HMC lengths with tau 2.5x the rms distance of the
     burn-in states from their mean (the optimum of the scan at dim 184 and 1714), 5
-    Lewis-weight updates of the rounding."""
+    Lewis-weight updates of the rounding (the walk on S takes config.LEWIS_UPDATES_LARGE
+    on the large path)."""
     p = {"seed": 0, "chains": 4, "thin": 1, "burn_in": 50, "tau_factor": 2.5,
          "length": "rehmc", "rounding_updates": 5}
     p.update({k: v for k, v in kw.items() if v is not None})
@@ -466,12 +467,28 @@ class BilliardFrameWalk(FrameWalk):
     STATE = ("w", "rng", "slack", "counts")
 
     def default_params(self, options: dict) -> dict:
-        return default_params(**options)
+        """default_params, with config.LEWIS_UPDATES_LARGE Lewis-weight updates on the large
+        path (unless given)."""
+        large = {"rounding_updates": config.LEWIS_UPDATES_LARGE} if self.large else {}
+        return default_params(**{**large, **{k: v for k, v in options.items()
+                                             if v is not None}})
+
+    def min_draws_per_chain(self) -> int:
+        """config.BILLIARD_MIN_DRAWS_PER_CHAIN (measured for this walk)."""
+        return config.BILLIARD_MIN_DRAWS_PER_CHAIN
+
+    @property
+    def large(self) -> bool:
+        """Whether S is on the analysis' large path (config.SWEEP_MIN_COLUMNS columns and
+        up): the frame starts at the analysis' interior point, the rounding centres to
+        config.LEWIS_CENTRED_LARGE."""
+        return self.problem.n_columns >= config.SWEEP_MIN_COLUMNS
 
     def round(self):
         scale = self.problem.force_scale
-        return lewis_rounding_with_progress(self.H0 * scale, self.frame.s0, np.zeros(self.d),
-                                            self.params["rounding_updates"], self.progress)
+        return lewis_rounding_with_progress(
+            self.H0 * scale, self.frame.s0, np.zeros(self.d), self.params["rounding_updates"],
+            self.progress, config.LEWIS_CENTRED_LARGE if self.large else config.LEWIS_CENTRED)
 
     def start_chains(self, H, s):
         """Dispersed starts, the Gram matrix and the burn-in (its counts kept apart)."""
@@ -536,7 +553,8 @@ class BilliardWalk(FrameSampler):
     between samples (default 1), ``burn_in`` trajectories per chain (default 50),
     ``tau_factor`` (default 2.5: tau = 2.5 x the rms distance of the burn-in states from
     their mean), ``length`` "rehmc" (default), "exponential" or "uniform",
-    ``rounding_updates`` Lewis-weight updates of the rounding (default 5);
+    ``rounding_updates`` Lewis-weight updates of the rounding (default 5; on the large
+    path, ``config.SWEEP_MIN_COLUMNS`` columns and up, config.LEWIS_UPDATES_LARGE = 0);
     ``max_seconds`` stops early (status 1, every sample drawn kept); ``target_ess``:
     stop as soon as every tracked statistic has bulk and tail ESS >= target_ess and
     split R-hat <= 1.05 (``n`` is then the cap; reaching it first is status 1);

@@ -120,13 +120,15 @@ class Stop:
     samples has bulk and tail ESS >= target_ess and R-hat <= ``config.RHAT_MAX``
     (status 0; reaching n without it is status 1). ESS is checked after every
     ``chains`` samples once their number has grown by a quarter since the last check,
-    from ``config.MIN_DRAWS_PER_CHAIN`` draws per chain on (shorter chains overstate it)."""
+    from ``min_draws`` draws per chain on (default ``config.MIN_DRAWS_PER_CHAIN``: shorter
+    chains overstate it; a walk measured otherwise says its own)."""
 
     def __init__(self, n: int, max_seconds=None, target_ess=None, chains: int = 1,
-                 seed: int = 0):
+                 seed: int = 0, min_draws: int | None = None):
         self.n, self.max_seconds, self.target_ess = n, max_seconds, target_ess
         self.chains, self.seed = max(int(chains), 1), seed
-        self.next_check = config.MIN_DRAWS_PER_CHAIN * self.chains
+        floor = config.MIN_DRAWS_PER_CHAIN if min_draws is None else int(min_draws)
+        self.next_check = floor * self.chains
         self.last = {}
 
     def _after(self, k: int) -> int:
@@ -390,7 +392,7 @@ class FrameSampler(Sampler):
             else checked_problem(problem, type(self).__name__)
         walk = Walk(problem, self.options, analysis, self.progress)
         stop = TimedStop(self.n, self.max_seconds, self.target_ess, walk.params["chains"],
-                         walk.params["seed"])
+                         walk.params["seed"], walk.min_draws_per_chain())
         ens = run_walk(walk, problem, stop, output, self.checkpoint_every, self.progress,
                        t_start=t0)
         self._start()

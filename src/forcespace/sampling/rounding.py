@@ -412,10 +412,11 @@ def _line_search(r, Hdy, u, amax):
     return a
 
 
-def _centre(H, s, y, u, st, max_newton, callback):
+def _centre(H, s, y, u, st, max_newton, callback, centred):
     """Newton with exact line search to the u-weighted analytic centre of {H y <= s}
-    (minimiser of -sum u log(s - H y)), from y strictly inside; st counts "newton" steps
-    (shared with the caller's budget). Returns (y, slacks)."""
+    (minimiser of -sum u log(s - H y)), from y strictly inside, until half the squared
+    Newton decrement is below ``centred``; st counts "newton" steps (shared with the
+    caller's budget). Returns (y, slacks)."""
     r = s - H @ y
     while st["newton"] < max_newton:
         At = H / r[:, None]
@@ -426,7 +427,7 @@ def _centre(H, s, y, u, st, max_newton, callback):
         st["newton"] += 1
         if callback is not None:
             callback("centre", st["newton"], st["updates"], st["excess"])
-        if dec2 / 2 < config.LEWIS_CENTRED:
+        if dec2 / 2 < centred:
             break
         Hdy = H @ dy
         pos = Hdy > 0
@@ -439,7 +440,7 @@ def _centre(H, s, y, u, st, max_newton, callback):
 
 
 def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton: int = 200,
-                   callback=None):
+                   callback=None, centred: float = config.LEWIS_CENTRED):
     """Cheap rounding ellipsoid of {H y <= s}: (c (d,), Lc (d, d) upper triangular, info).
 
     The ellipsoid {c + Lc z : |z| <= 1} is inscribed in the polytope and touches it, so
@@ -451,7 +452,8 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     (Cohen, Cousins, Lee & Yang 2019), each followed by re-centring; stops earlier when
     John's condition max_i a_i^T M^-1 a_i <= 1 + ``tol`` holds. Whatever the iteration
     count the ellipsoid is scaled to be inscribed: the rounding is never wrong, only
-    more or less round. ``callback(stage, newton_steps, updates, excess)`` after every
+    more or less round. ``centred``: half the squared Newton decrement at which a centre
+    counts as found. ``callback(stage, newton_steps, updates, excess)`` after every
     Newton step and weight update. info: method, newton_steps, weight_updates,
     john_excess, converged, cpu_s.
     """
@@ -462,7 +464,7 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     st = {"newton": 0, "updates": 0, "excess": np.inf}
     ok = False
     while True:
-        y, r = _centre(H, s, y, u, st, max_newton, callback)
+        y, r = _centre(H, s, y, u, st, max_newton, callback, centred)
         At = H / r[:, None]
         Lm = _cholesky(_weighted_gram(At, u))
         X = sla.solve_triangular(Lm, At.T, lower=True, check_finite=False)
@@ -486,11 +488,13 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     return y, Lc, info
 
 
-def lewis_rounding_with_progress(H, s, y0, max_updates: int = 5, progress: bool = False):
+def lewis_rounding_with_progress(H, s, y0, max_updates: int = 5, progress: bool = False,
+                                 centred: float = config.LEWIS_CENTRED):
     """:func:`lewis_rounding` with a bar on stderr: one step per Newton step or weight
     update. Its total is unknown until the first centring is done; then it is estimated
     from the Newton steps the re-centrings have taken so far (5 per update until one is
-    measured), so the bar's ETA is honest after the first update."""
+    measured), so the bar's ETA is honest after the first update. ``centred``: as for
+    :func:`lewis_rounding`."""
     from ..progress import progress as progress_bar
 
     first = {}
@@ -507,4 +511,5 @@ def lewis_rounding_with_progress(H, s, y0, max_updates: int = 5, progress: bool 
                             f"John excess {excess:.2g}", refresh=False)
 
     with bar:
-        return lewis_rounding(H, s, y0, max_updates=max_updates, callback=show)
+        return lewis_rounding(H, s, y0, max_updates=max_updates, callback=show,
+                              centred=centred)
