@@ -71,6 +71,8 @@ _SURFACE = {
     "conic_ft_range_ascent": ("space.conic", "ft_range_ascent"),
     # sampling
     "by_chain": ("sampling.diagnostics", "by_chain"),
+    "tracked_statistics": ("sampling.diagnostics", "tracked_statistics"),
+    "summarize": ("sampling.diagnostics", "summarize"),
     # measures
     "rearrangement_depth": ("measures", "rearrangement_depth"),
     "surface_disk": ("measures", "surface_disk"),

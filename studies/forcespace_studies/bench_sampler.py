@@ -1,23 +1,24 @@
 """Billiard-walk benchmark at scale (issue 46): a run to ESS >= 100 on every tracked
 statistic with split R-hat <= 1.05, set-up included (analysis of S for the frame, frame,
 rounding, Gram matrix, burn-in, draws, diagnostics), new code beside the code before
-issue 46 (commit 90bd720, exported from git and run from its sources), alternating which
-goes first, in CPU seconds (user + sys of the child process, getrusage), peak RSS of the
-child.
+(``--old`` commit, default c794887: before session 43's large path; 90bd720: before issue
+46), exported from git and run from its sources, alternating which goes first, in CPU
+seconds (user + sys of the child process, getrusage), peak RSS of the child.
 
 Cases: an 800-disk mu = 0.1 packing (``studies/sampler_cost/p800_mu0.1.h5``, slice 56 R:
 dim S 228) and the committed 5000-disk packing (``studies/big_slice/``, slice 140 R: dim S
-1714). Variants: "old" (90bd720), "new" (defaults), "new_float32" (``gram="float32"``).
+1714). Variants: "old" (the old commit), "new" (defaults), "new_float32"
+(``gram="float32"``; only with ``--float32``).
 Each child reads the packing, cuts the slice and runs ``BilliardWalk(100000, seed=1,
 target_ess=100)``; "run_cpu_s" is the CPU of that call (everything after reading the
 packing), "process_cpu_s" the whole child (Python start and imports included). The
 ensembles are compared: eta, and per-contact means of fn and ft (z-scores against their
-Monte-Carlo errors from chain means), float32 against float64.
+Monte-Carlo errors from chain means), new against old (and float32 against float64).
 
 Writes (merges) the section ``billiard`` of OUT/bench.json. Usage::
 
     python -m forcespace_studies.bench_sampler [--rounds 3] [--big-rounds 1]
-        [--out studies/out] [--cases small,big]
+        [--out studies/out] [--cases small,big] [--old COMMIT] [--float32]
 """
 from __future__ import annotations
 
@@ -37,11 +38,12 @@ from forcespace.extend import write_json
 
 from .bench_engine import _children_cpu, log, old_sources
 
-OLD_COMMIT = "90bd720"
+OLD_COMMIT = "c794887"
 CASES = {"small": ("p800 mu0.1 slice 56", "studies/sampler_cost/p800_mu0.1.h5", 56.0),
          "big": ("paper_fast n5000 mu0.1 slice 140", "studies/big_slice/"
                  "paper_fast_n5000_mu0.1_s1.h5", 140.0)}
-VARIANTS = {"old": {}, "new": {}, "new_float32": {"gram": "float32"}}
+VARIANTS = {"old": {}, "new": {}}
+FLOAT32 = {"new_float32": {"gram": "float32"}}
 
 CHILD = r"""
 import json, resource, sys, time
@@ -57,12 +59,14 @@ e = b.ensemble
 X = e.samples
 chains = np.unique(e.chains)
 per = np.array([X[e.chains == c].mean(0) for c in chains])
-np.savez(out, mean=X.mean(0), err=per.std(0, ddof=1) / np.sqrt(len(chains)))
+np.savez(out, mean=X.mean(0), err=per.std(0, ddof=1) / np.sqrt(len(chains)),
+         X=np.array([X[e.chains == c] for c in chains], np.float32))
 print(json.dumps({"run_cpu_s": c2 - c1, "read_cpu_s": c1 - c0, "cpu": b.cpu, "dim_S": b.dim,
                   "n_rows": b.n_rows, "n_samples": e.n_samples,
                   "min_ess": e.diagnostics["min_ess"], "max_rhat": e.diagnostics["max_rhat"],
                   "eta": float(fs.eta(X)), "eta_per_chain": e.diagnostics["eta_per_chain"],
                   "max_violation": float(e.violations.max()), "counts": b.counts,
+                  "rounding": b.walk_info.get("rounding", {}), "tau": b.walk_info.get("tau"),
                   "gram_form": b.walk_info.get("gram_form", "float64"),
                   "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
 """
@@ -95,23 +99,24 @@ def agreement(a: Path, b: Path, ra: dict, rb: dict) -> dict:
             "eta_rel_diff": float(rb["eta"] / ra["eta"] - 1)}
 
 
-def bench_case(key: str, old_src: Path, rounds: int, tmp: Path) -> dict:
+def bench_case(key: str, old: tuple, rounds: int, tmp: Path, variants: dict) -> dict:
     name, packing, height = CASES[key]
-    srcs = {v: (old_src if v == "old" else None) for v in VARIANTS}
+    old_commit, old_src = old
+    srcs = {v: (old_src if v == "old" else None) for v in variants}
     if key == "small":                                   # untimed: numba caches warm
-        for v in VARIANTS:                               # (the same kernels at every size)
-            run_child(srcs[v], packing, height, VARIANTS[v], tmp / f"warm_{v}.npz")
-    runs = {v: [] for v in VARIANTS}
+        for v in variants:                               # (the same kernels at every size)
+            run_child(srcs[v], packing, height, variants[v], tmp / f"warm_{v}.npz")
+    runs = {v: [] for v in variants}
     for k in range(rounds):
-        order = list(VARIANTS) if k % 2 == 0 else list(VARIANTS)[::-1]
+        order = list(variants) if k % 2 == 0 else list(variants)[::-1]
         for v in order:
-            runs[v].append(run_child(srcs[v], packing, height, VARIANTS[v],
+            runs[v].append(run_child(srcs[v], packing, height, variants[v],
                                      tmp / f"{key}_{v}.npz"))
             r = runs[v][-1]
             log(f"  {name} {v}: run {r['run_cpu_s']:.1f} CPU s (process "
                 f"{r['process_cpu_s']:.1f}), ESS {r['min_ess']:.0f}, R-hat "
                 f"{r['max_rhat']:.3f}, {r['peak_rss_mb']:.0f} MB")
-    row = {"case": name, "packing": packing, "slice_height": height, "old_commit": OLD_COMMIT}
+    row = {"case": name, "packing": packing, "slice_height": height, "old_commit": old_commit}
     for v, rs in runs.items():
         best = int(np.argsort([r["run_cpu_s"] for r in rs])[len(rs) // 2])
         row[v] = {**rs[best], "run_cpu_s_runs": [r["run_cpu_s"] for r in rs],
@@ -119,8 +124,12 @@ def bench_case(key: str, old_src: Path, rounds: int, tmp: Path) -> dict:
     row["same_samples_old_new"] = bool(
         np.array_equal(np.load(tmp / f"{key}_old.npz")["mean"],
                        np.load(tmp / f"{key}_new.npz")["mean"]))
-    row["float32_vs_float64"] = agreement(tmp / f"{key}_new.npz", tmp / f"{key}_new_float32.npz",
-                                          row["new"], row["new_float32"])
+    row["new_vs_old"] = agreement(tmp / f"{key}_old.npz", tmp / f"{key}_new.npz",
+                                  row["old"], row["new"])
+    if "new_float32" in variants:
+        row["float32_vs_float64"] = agreement(tmp / f"{key}_new.npz",
+                                              tmp / f"{key}_new_float32.npz", row["new"],
+                                              row["new_float32"])
     row["speedup_run_cpu"] = row["old"]["run_cpu_s"] / row["new"]["run_cpu_s"]
     return row
 
@@ -138,19 +147,28 @@ def main(argv=None) -> int:
     ap.add_argument("--big-rounds", type=int, default=1, help="rounds of the dim-1714 case")
     ap.add_argument("--out", type=Path, default=Path("studies/out"))
     ap.add_argument("--cases", default="small,big")
+    ap.add_argument("--old", default=OLD_COMMIT, help="commit of the old code")
     ap.add_argument("--old-src", type=Path, default=None,
-                    help=f"sources of the old code (default: exported from git at {OLD_COMMIT})")
+                    help="sources of the old code (default: exported from git at --old)")
+    ap.add_argument("--float32", action="store_true", help="also the float32-Gram variant")
+    ap.add_argument("--keep", type=Path, default=None,
+                    help="directory to keep each run's per-column means and errors in")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
-    old_src = a.old_src or old_sources(Path.cwd(), a.out / f"old_code_{OLD_COMMIT}", OLD_COMMIT)
+    old_src = a.old_src or old_sources(Path.cwd(), a.out / f"old_code_{a.old}", a.old)
+    variants = {**VARIANTS, **(FLOAT32 if a.float32 else {})}
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
+        if a.keep is not None:
+            a.keep.mkdir(parents=True, exist_ok=True)
+            tmp = a.keep
         for key in a.cases.split(","):
-            log(f"billiard to ESS 100, {CASES[key][0]}: old ({OLD_COMMIT}), new, new float32")
-            rows.append(bench_case(key, old_src, a.rounds if key == "small" else a.big_rounds,
-                                   Path(tmp)))
+            log(f"billiard to ESS 100, {CASES[key][0]}: {', '.join(variants)} (old: {a.old})")
+            rows.append(bench_case(key, (a.old, old_src),
+                                   a.rounds if key == "small" else a.big_rounds, Path(tmp),
+                                   variants))
     merge_section(a.out / "bench.json", {
-        "old_commit": OLD_COMMIT, "machine": platform.platform(), "cpu_count": os.cpu_count(),
+        "old_commit": a.old, "machine": platform.platform(), "cpu_count": os.cpu_count(),
         "timing": "CPU (user + sys) of the child process, median of the rounds; "
                   "OMP_NUM_THREADS=1; 2 cores shared with other jobs",
         "run": "BilliardWalk(100000, seed=1, target_ess=100).compute(slice)", "cases": rows})
