@@ -7,7 +7,9 @@ Jams: per mu and size n (the box scaled as ``--n N --scale-box``: lateral extent
 (n/500)^(1/3)), seed 1, one subprocess each with one BLAS thread, CPU = user + sys of the
 child (getrusage), with steps, how the jam ended, z, packing fraction, rattlers and the
 static residual. A jam run separately (e.g. by ``studies/spheres3d.py``) is added with
-``--add MU:N:PACKING:CPU_S``.
+``--add MU:N:PACKING:CPU_S``; the cost of a slice's exact analysis and converged uniform
+sampling (``studies/spheres_slice_cost.py``, issue 44) with ``--add-slice-cost JSON``
+(under ``slice_cost``, keyed by the number of spheres).
 
 Updates: CPU ns per single-contact Gauss-Seidel update of a frozen plate problem (the
 static solve's sweep: single contacts in random order, no over-relaxation; ``--sweeps``
@@ -132,7 +134,9 @@ def merge(path: Path, key: str, value) -> None:
     sec = data.setdefault("spheres", {})
     sec.update(machine=platform.platform(), cpu_count=os.cpu_count(), scene=SCENE, seed=SEED,
                timing="CPU (user + sys)")
-    if key == "jams":
+    if key == "slice_cost":
+        sec.setdefault("slice_cost", {})[str(value["n_spheres"])] = value
+    elif key == "jams":
         mu, n, row = value
         rows = {r["n"]: r for r in sec.setdefault("jams", {}).get(f"{mu:g}", [])}
         rows[n] = {"n": n, **row}
@@ -156,9 +160,14 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=Path("studies/out"))
     ap.add_argument("--add", action="append", metavar="MU:N:PACKING:CPU_S",
                     help="record a sphere jam run separately (its packing file and CPU s)")
+    ap.add_argument("--add-slice-cost", action="append", metavar="JSON", default=[],
+                    help="record the cost of a slice's exact analysis and converged sampling "
+                         "measured by studies/spheres_slice_cost.py (its JSON file)")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     bench = a.out / "bench.json"
+    for f in a.add_slice_cost:
+        merge(bench, "slice_cost", json.loads(Path(f).read_text()))
     for spec in a.add or ():
         mu, n, rest = spec.split(":", 2)
         path, cpu = rest.rsplit(":", 1)
