@@ -145,6 +145,11 @@ LEWIS_CENTRED = 1e-6        # [1] half the squared Newton decrement at which the
 LEWIS_CENTRED_LARGE = 1e-2  # [1] the same on the large path (SWEEP_MIN_COLUMNS columns and up):
                             # dim 1714, 0 weight updates: 6 Newton steps instead of 8, John
                             # excess 5.1681 against 5.1678 (the frame as round)
+BILLIARD_BURN_IN_LARGE = 20 # [trajectories] the billiard walk's default burn-in per chain on the
+                            # large path (50 below): at dim 1714 |w|^2 reaches its stationary
+                            # spread after 2-3 trajectories from the dispersed starts, tau
+                            # (from the third quarter's states) was 115 with 50; the run's
+                            # R-hat <= 1.05 still decides (50 x 4 were 6.3 CPU s there)
 LEWIS_UPDATES_LARGE = 0     # [updates] the billiard walk's default Lewis-weight updates on the
                             # large path (5 below): at dim 1714 the Dikin ellipsoid at the
                             # analytic centre cost 0.059 CPU s per effective sample against
@@ -176,10 +181,11 @@ MIN_DRAWS_PER_CHAIN = 100   # [samples] a target-ESS run stops no earlier: ESS e
                             # shorter chains runs high (dim 1344: ESS "100" after 50 draws per
                             # chain was 77 on the longer run)
 BILLIARD_MIN_DRAWS_PER_CHAIN = 25  # [samples] the same for the billiard walk (0.6-0.8 effective
-                            # samples per draw): on prefixes of 6 long runs at dim 228 (4 x 500
-                            # draws) this rule stopped at 160-252 samples, where the long runs'
-                            # own ESS per draw gives 110-182 (never below the target of 100;
-                            # the short-chain estimates were 100-162, i.e. low, not high)
+                            # samples per draw): on prefixes of long runs (dim 228: 6 runs of
+                            # 4 x 500 draws; dim 1714: 4 x 250) this rule stopped at 160-252
+                            # samples, where the long runs' own ESS per draw gives 110-182
+                            # (never below the target of 100; the short-chain estimates were
+                            # 100-162, i.e. low, not high; at dim 1714 R-hat <= 1.05 decided)
 
 # ---- files ---------------------------------------------------------------------------------
 FORCE_MATCH_TOL = 1e-9      # [<Fn>] an ensemble's jammed forces and its packing's differ by at

@@ -421,7 +421,7 @@ def test_large_path_frame_starts_at_the_interior_point_or_falls_back_to_the_cent
 
 def test_large_path_ensemble_agrees_with_the_default_path(monkeypatch):
     """Issue 46: the large path (frame at the interior point, Dikin rounding at a looser
-    centre, config.LEWIS_UPDATES_LARGE updates) samples the same S: on the paper slice
+    centre, config.LEWIS_UPDATES_LARGE updates, a shorter burn-in) samples the same S: on the paper slice
     (dim S 48) per-contact mean forces and eta agree with the default path's within the
     chains' Monte-Carlo errors, every sample inside S."""
     from paths import PACKINGS
@@ -432,6 +432,7 @@ def test_large_path_ensemble_agrees_with_the_default_path(monkeypatch):
     monkeypatch.setattr(config, "SWEEP_MIN_COLUMNS", 0)
     new = BilliardWalk(20000, seed=5, target_ess=600).compute(prob)
     assert new.walk_info["rounding"]["weight_updates"] == config.LEWIS_UPDATES_LARGE == 0
+    assert new.params["burn_in"] == config.BILLIARD_BURN_IN_LARGE < old.params["burn_in"]
     assert old.walk_info["rounding"]["weight_updates"] == 5
     assert new.ensemble.violations.max() <= config.SAMPLE_VIOLATION
     Xo = by_chain(old.ensemble.samples, old.ensemble.chains)

@@ -467,9 +467,11 @@ class BilliardFrameWalk(FrameWalk):
     STATE = ("w", "rng", "slack", "counts")
 
     def default_params(self, options: dict) -> dict:
-        """default_params, with config.LEWIS_UPDATES_LARGE Lewis-weight updates on the large
-        path (unless given)."""
-        large = {"rounding_updates": config.LEWIS_UPDATES_LARGE} if self.large else {}
+        """default_params, with config.LEWIS_UPDATES_LARGE Lewis-weight updates and
+        config.BILLIARD_BURN_IN_LARGE burn-in trajectories on the large path (unless
+        given)."""
+        large = {"rounding_updates": config.LEWIS_UPDATES_LARGE,
+                 "burn_in": config.BILLIARD_BURN_IN_LARGE} if self.large else {}
         return default_params(**{**large, **{k: v for k, v in options.items()
                                              if v is not None}})
 
@@ -550,7 +552,8 @@ class BilliardWalk(FrameSampler):
     ``BilliardWalk(n=100, seed=1).compute(problem)`` draws ``n`` samples in memory;
     ``compute(problem, output=PATH)`` writes (and resumes) an ensemble file instead.
     Parameters: ``chains`` (default 4, from dispersed starts), ``thin`` trajectories
-    between samples (default 1), ``burn_in`` trajectories per chain (default 50),
+    between samples (default 1), ``burn_in`` trajectories per chain (default 50; on the
+    large path config.BILLIARD_BURN_IN_LARGE = 20),
     ``tau_factor`` (default 2.5: tau = 2.5 x the rms distance of the burn-in states from
     their mean), ``length`` "rehmc" (default), "exponential" or "uniform",
     ``rounding_updates`` Lewis-weight updates of the rounding (default 5; on the large
