@@ -56,7 +56,8 @@ def ms_of(v) -> str:
 def slope_rule(rows) -> str:
     pts = [(r["mu"], r["eta"]) for r in rows if 0 < r["mu"] <= 0.01 and r["eta"] > 0]
     if len({m for m, _ in pts}) < 2:
-        return "| 1 | eta ∝ mu at small mu (mu <= 0.01) | fewer than two mu values | **not decidable** |"
+        return ("| 1 | eta ∝ mu at small mu (mu <= 0.01) | fewer than two mu values | "
+                "**not decidable** |")
     x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
     slope = np.polyfit(x, y, 1)[0]
     rng = np.random.default_rng(0)
@@ -321,7 +322,8 @@ def write_verdicts(rows, rows500, out: Path) -> None:
             "run had started (before any packing above mu = 1 was done; the amendment only "
             "makes them not decidable while the data end below mu = 10, so it changes no "
             "verdict on the complete set). Per mu (mean ± s.e. over packings; also in "
-            "spheres_fig1.md, beside the n = 500 rows of rule 5'):\n\n" + table(by_mu(rows)).strip())
+            "spheres_fig1.md, beside the n = 500 rows of rule 5'):\n\n"
+            + table(by_mu(rows)).strip())
     reading = out / "reading.md"            # the study's reading, written by hand
     if reading.is_file():
         text += "\n\n" + reading.read_text().strip()
