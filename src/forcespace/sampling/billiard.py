@@ -73,7 +73,7 @@ from ..progress import progress as progress_bar
 from ..streams import chain_states, start_generator
 from .conic_walk import ConicBilliardWalk
 from .driver import FrameSampler
-from .frame import FrameWalk
+from .frame import FrameWalk, on_large_path
 from .rounding import lewis_rounding_with_progress
 from .xoshiro import normals, uniform
 
@@ -481,10 +481,8 @@ class BilliardFrameWalk(FrameWalk):
 
     @property
     def large(self) -> bool:
-        """Whether S is on the analysis' large path (config.SWEEP_MIN_COLUMNS columns and
-        up): the frame starts at the analysis' interior point, the rounding centres to
-        config.LEWIS_CENTRED_LARGE."""
-        return self.problem.n_columns >= config.SWEEP_MIN_COLUMNS
+        """frame.on_large_path: the rounding centres to config.LEWIS_CENTRED_LARGE."""
+        return on_large_path(self.problem)
 
     def round(self):
         scale = self.problem.force_scale

@@ -79,6 +79,13 @@ def sampled_analysis(problem, analysis=None, centre: bool = True):
     return an
 
 
+def on_large_path(problem) -> bool:
+    """Whether S of ``problem`` is on the analysis' large path (config.SWEEP_MIN_COLUMNS
+    columns and up: interior-point LPs): the frame starts at the analysis' interior point
+    (:func:`frame_start`), and the billiard walk rounds and burns in more cheaply."""
+    return problem.n_columns >= config.SWEEP_MIN_COLUMNS
+
+
 def frame_start(an, N) -> np.ndarray:
     """The point of S's affine hull (2m,) [F0] the frame is centred at: the analysis'
     Chebyshev centre if it has one, else (the large path, config.SWEEP_MIN_COLUMNS columns
@@ -97,8 +104,7 @@ def frame(problem: StaticsProblem, analysis=None) -> Frame:
 
     The free rows are the inequalities that are neither implicit equalities nor
     constant on the affine hull (|G_i N| <= FLAT_ROW)."""
-    large = problem.n_columns >= config.SWEEP_MIN_COLUMNS
-    an = sampled_analysis(problem, analysis, centre=not large)
+    an = sampled_analysis(problem, analysis, centre=not on_large_path(problem))
     G, _, _ = problem.inequalities()
     free = np.setdiff1d(np.arange(G.shape[0]), an.implicit_rows)
     N = an.affine_basis

@@ -440,7 +440,7 @@ def _centre(H, s, y, u, st, max_newton, callback, centred):
 
 
 def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton: int = 200,
-                   callback=None, centred: float = config.LEWIS_CENTRED):
+                   callback=None, centred: float | None = None):
     """Cheap rounding ellipsoid of {H y <= s}: (c (d,), Lc (d, d) upper triangular, info).
 
     The ellipsoid {c + Lc z : |z| <= 1} is inscribed in the polytope and touches it, so
@@ -453,7 +453,7 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     John's condition max_i a_i^T M^-1 a_i <= 1 + ``tol`` holds. Whatever the iteration
     count the ellipsoid is scaled to be inscribed: the rounding is never wrong, only
     more or less round. ``centred``: half the squared Newton decrement at which a centre
-    counts as found. ``callback(stage, newton_steps, updates, excess)`` after every
+    counts as found (default config.LEWIS_CENTRED). ``callback(stage, newton_steps, updates, excess)`` after every
     Newton step and weight update. info: method, newton_steps, weight_updates,
     john_excess, converged, cpu_s.
     """
@@ -464,7 +464,8 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     st = {"newton": 0, "updates": 0, "excess": np.inf}
     ok = False
     while True:
-        y, r = _centre(H, s, y, u, st, max_newton, callback, centred)
+        y, r = _centre(H, s, y, u, st, max_newton, callback,
+                       config.LEWIS_CENTRED if centred is None else centred)
         At = H / r[:, None]
         Lm = _cholesky(_weighted_gram(At, u))
         X = sla.solve_triangular(Lm, At.T, lower=True, check_finite=False)
@@ -489,7 +490,7 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
 
 
 def lewis_rounding_with_progress(H, s, y0, max_updates: int = 5, progress: bool = False,
-                                 centred: float = config.LEWIS_CENTRED):
+                                 centred: float | None = None):
     """:func:`lewis_rounding` with a bar on stderr: one step per Newton step or weight
     update. Its total is unknown until the first centring is done; then it is estimated
     from the Newton steps the re-centrings have taken so far (5 per update until one is
