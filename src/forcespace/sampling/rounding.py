@@ -416,7 +416,9 @@ def _centre(H, s, y, u, st, max_newton, callback, centred):
     """Newton with exact line search to the u-weighted analytic centre of {H y <= s}
     (minimiser of -sum u log(s - H y)), from y strictly inside, until half the squared
     Newton decrement is below ``centred``; st counts "newton" steps (shared with the
-    caller's budget). Returns (y, slacks)."""
+    caller's budget). Returns (y, slacks, (At, Lm)): the slack-scaled rows and the Cholesky
+    factor of M at y when the last step found the centre (the caller's M, one p x d^2 syrk
+    saved), else None."""
     r = s - H @ y
     while st["newton"] < max_newton:
         At = H / r[:, None]
@@ -428,7 +430,7 @@ def _centre(H, s, y, u, st, max_newton, callback, centred):
         if callback is not None:
             callback("centre", st["newton"], st["updates"], st["excess"])
         if dec2 / 2 < centred:
-            break
+            return y, r, (At, Lm)
         Hdy = H @ dy
         pos = Hdy > 0
         amax = float(np.min(r[pos] / Hdy[pos])) if pos.any() else np.inf
@@ -436,7 +438,7 @@ def _centre(H, s, y, u, st, max_newton, callback, centred):
         r = s - H @ y
         if not np.all(r > 0):
             raise NumericalError("rounding: the centring left the polytope")
-    return y, r
+    return y, r, None
 
 
 def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton: int = 200,
@@ -464,10 +466,10 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     st = {"newton": 0, "updates": 0, "excess": np.inf}
     ok = False
     while True:
-        y, r = _centre(H, s, y, u, st, max_newton, callback,
-                       config.LEWIS_CENTRED if centred is None else centred)
-        At = H / r[:, None]
-        Lm = _cholesky(_weighted_gram(At, u))
+        y, r, found = _centre(H, s, y, u, st, max_newton, callback,
+                              config.LEWIS_CENTRED if centred is None else centred)
+        At, Lm = found if found is not None else \
+            (H / r[:, None], _cholesky(_weighted_gram(H / r[:, None], u)))
         X = sla.solve_triangular(Lm, At.T, lower=True, check_finite=False)
         lev = np.einsum("ij,ij->j", X, X)      # a_i^T M^-1 a_i
         st["excess"] = float(lev.max() - 1.0)
