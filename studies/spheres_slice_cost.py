@@ -88,7 +88,7 @@ def range_costs(prob, S, k: int, k_old: int) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("packing")
+    ap.add_argument("packing", nargs="?")
     ap.add_argument("--out", default="studies/results/spheres_slice_cost")
     ap.add_argument("--target-ess", type=float, default=100.0)
     ap.add_argument("--cap", type=int, default=4000)
@@ -100,7 +100,15 @@ def main(argv=None) -> int:
                          "ascent), old beside new")
     ap.add_argument("--old", type=int, default=0, metavar="K2")
     ap.add_argument("--no-sampling", action="store_true")
+    ap.add_argument("--report", action="store_true",
+                    help="measure nothing: OUT/table.md, verdicts.json and REPORT.md from the "
+                         "JSON files in OUT")
     args = ap.parse_args(argv)
+    if args.report:
+        write_report(Path(args.out))
+        return 0
+    if not args.packing:
+        ap.error("PACKING is required (a sphere packing file), unless --report")
     import forcespace as fs
     from forcespace import config
     from forcespace.extend import code_version, sphere_problem_for, write_json
@@ -150,6 +158,64 @@ def main(argv=None) -> int:
     write_json(out, row)
     print(json.dumps(row["sampling"]), flush=True)
     return 0
+
+
+def cost_cells(d: dict) -> list[str]:
+    """A row of the cost table from one JSON file of this script."""
+    a, s = d["analysis"], d.get("sampling")
+    st = a["stages_cpu_s"]
+    stages = ", ".join(f"{'set-up (rank of A)' if k == 'set-up' else k} {v:.1f}"
+                       for k, v in st.items())
+    rest = a["cpu_s"] - sum(st.values())
+    if rest > 0.05 * a["cpu_s"]:
+        stages += f", set-up (rank of A) and checks {rest:.1f}"
+    part = d.get("sampling_partial")
+    samp = ((f"not finished: stopped in the rounding after {part['rounding_cpu_s_so_far']:.0f} "
+             f"CPU s ({part['note']})" if part else "not finished") if s is None else
+            f"{s['cpu_s']:.1f} (rounding {s['cpu_rounding_s']:.1f}, burn-in "
+            f"{s['cpu_burn_in_s']:.1f}, {s['n_samples']} samples {s['cpu_sampling_s']:.1f})")
+    conv = "—" if s is None else f"{s['min_ess']:.0f} / {s['max_rhat']:.3f}"
+    mem = max(a["peak_memory_mib"], (s or part or {}).get("peak_memory_mib", 0))
+    return [str(d["n_spheres"]), str(d["n_contacts_unknown"]), str(a["dim"]),
+            f"{a['cpu_s']:.1f} ({stages})", samp, conv, f"{mem:.0f}"]
+
+
+def write_report(out: Path) -> None:
+    """OUT/table.md and the report section (verdicts.json, REPORT.md) from OUT/n*.json."""
+    from forcespace_studies.report import RULES_VERSION, Verdict, write_section
+
+    docs = [json.loads(f.read_text()) for f in sorted(out.glob("n*_*.json"))
+            if not f.stem.endswith("_ranges")]
+    if not docs:
+        raise SystemExit(f"{out}: no cost file (n*_*.json) of this script to report")
+    docs.sort(key=lambda d: d["n_spheres"])
+    head = ("| spheres | unknown contacts | dim S | exact analysis, CPU s (by stage) | "
+            "billiard to convergence, CPU s | min ESS / max R-hat | peak memory [MiB] |\n"
+            "|---|---|---|---|---|---|---|\n")
+    table = head + "".join("| " + " | ".join(cost_cells(d)) + " |\n" for d in docs)
+    (out / "table.md").write_text(table)
+    verdicts = []
+    for d in docs:
+        s = d.get("sampling")
+        ok = s is not None and s["status"] == 0
+        verdicts.append(Verdict(
+            "spheres_slice_cost", f"S of a {d['n_spheres']}-sphere slice (paper3d_certified, "
+            f"mu = {d['mu']:g}) is analysed exactly and sampled uniformly to convergence on "
+            "the project's machine", "; ".join(
+                f"{h}: {c}" for h, c in zip(("spheres", "contacts", "dim S",
+                                             "analysis CPU s", "billiard CPU s",
+                                             "min ESS / max R-hat", "peak MiB"),
+                                            cost_cells(d))),
+            "supported" if ok else "not decidable", sampler="billiard", kind="ours",
+            rule=f"the billiard's own stop: every tracked statistic's bulk and tail ESS >= "
+                 f"{d['target_ess']:g} and R-hat <= {d['rhat_max']:g}, at most {d['cap']} "
+                 "samples; CPU s of this process"))
+    write_section(out, "spheres_slice_cost", "Spheres: the cost of the exact analysis and "
+                  "of converged uniform sampling of a slice", "The middle slice of "
+                  "`paper3d_certified` packings (issue 43) at mu = 0.1, seed 1; CPU s are "
+                  "user + system time of one process on the shared 2-core machine "
+                  "(`studies/spheres_slice_cost.py`; one JSON per packing here).\n\n" + table,
+                  verdicts, {"rows": docs}, [], rules_version=RULES_VERSION)
 
 
 if __name__ == "__main__":

@@ -9,7 +9,8 @@ child (getrusage), with steps, how the jam ended, z, packing fraction, rattlers 
 static residual. A jam run separately (e.g. by ``studies/spheres3d.py``) is added with
 ``--add MU:N:PACKING:CPU_S``; the cost of a slice's exact analysis and converged uniform
 sampling (``studies/spheres_slice_cost.py``, issue 44) with ``--add-slice-cost JSON``
-(under ``slice_cost``, keyed by the number of spheres).
+(under ``slice_cost``, keyed by the number of spheres; a ``--ranges`` file, the per-contact
+ranges with |f_t| max new beside old, under ``range_cost``).
 
 Updates: CPU ns per single-contact Gauss-Seidel update of a frozen plate problem (the
 static solve's sweep: single contacts in random order, no over-relaxation; ``--sweeps``
@@ -134,8 +135,9 @@ def merge(path: Path, key: str, value) -> None:
     sec = data.setdefault("spheres", {})
     sec.update(machine=platform.platform(), cpu_count=os.cpu_count(), scene=SCENE, seed=SEED,
                timing="CPU (user + sys)")
-    if key == "slice_cost":
-        sec.setdefault("slice_cost", {})[str(value["n_spheres"])] = value
+    if key == "slice_cost":     # a --ranges file: the per-contact ranges, old beside new
+        part = "range_cost" if "ranges" in value else "slice_cost"
+        sec.setdefault(part, {})[str(value["n_spheres"])] = value
     elif key == "jams":
         mu, n, row = value
         rows = {r["n"]: r for r in sec.setdefault("jams", {}).get(f"{mu:g}", [])}
