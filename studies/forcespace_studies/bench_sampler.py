@@ -18,7 +18,9 @@ Monte-Carlo errors from chain means), new against old (and float32 against float
 Writes (merges) the section ``billiard`` of OUT/bench.json. Usage::
 
     python -m forcespace_studies.bench_sampler [--rounds 3] [--big-rounds 1]
-        [--out studies/out] [--cases small,big] [--old COMMIT] [--float32]
+        [--out studies/out] [--cases small,big] [--old COMMIT] [--float32] [--keep DIR]
+
+A run of some cases replaces those cases' rows and keeps the others.
 """
 from __future__ import annotations
 
@@ -135,9 +137,13 @@ def bench_case(key: str, old: tuple, rounds: int, tmp: Path, variants: dict) -> 
 
 
 def merge_section(path: Path, section: dict) -> None:
-    """Write ``section`` as key "billiard" of the JSON file, other keys kept (atomic)."""
+    """Write ``section`` as key "billiard" of the JSON file, other keys kept (atomic); rows
+    of cases it does not carry are kept from the file's section."""
     data = json.loads(path.read_text()) if path.is_file() else {}
-    data["billiard"] = section
+    ran = {r["case"] for r in section["cases"]}
+    kept = [r for r in data.get("billiard", {}).get("cases", []) if r["case"] not in ran]
+    data["billiard"] = {**data.get("billiard", {}), **section,
+                        "cases": kept + section["cases"]}
     write_json(path, data, indent=2)
 
 
@@ -152,7 +158,8 @@ def main(argv=None) -> int:
                     help="sources of the old code (default: exported from git at --old)")
     ap.add_argument("--float32", action="store_true", help="also the float32-Gram variant")
     ap.add_argument("--keep", type=Path, default=None,
-                    help="directory to keep each run's per-column means and errors in")
+                    help="directory to keep each run's samples (by chain), column means and "
+                         "errors in")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     old_src = a.old_src or old_sources(Path.cwd(), a.out / f"old_code_{a.old}", a.old)
