@@ -72,7 +72,7 @@ STUDIES     := fig1 fig3 fig2 size pointforce selection measured
 # studies whose verdicts.json their own script writes (not run by `forcespace study`),
 # reported beside: studies/spheres_fig1.py (issue 44), studies/spheres3d.py (issue 43;
 # --report-only rewrites a directory's verdicts from its rows)
-REPORTED    := spheres_fig1 spheres3d_certified_n500
+REPORTED    := spheres_fig1 spheres3d_certified_n500 spheres_liggghts_in_s spheres_slice_cost
 STUDY_ARGS  ?=
 
 studies: install liggghts
