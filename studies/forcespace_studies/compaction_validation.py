@@ -96,6 +96,9 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--no-work", action="store_true", help="with --with-s: tables from the rows only")
+    ap.add_argument("--bench", type=Path, default=None,
+                    help="with --with-s: mean jam CPU s per set into this bench.json (section compaction)")
     ap.add_argument("--with-s", action="store_true",
                     help="jam both scenes again, keep the packings, measure dim S / Nc and eta")
     a = ap.parse_args(argv)
@@ -128,13 +131,39 @@ def with_s(a) -> int:
     have = {(r["protocol"], r["n"], r["mu"], r["seed"]) for r in rows}
     todo = [(one_with_s, (pr, int(n), float(mu), s, str(out))) for n in a.sizes.split(",")
             for mu in a.mus.split(",") for s in range(1, a.seeds + 1)
-            for pr in PROTOCOLS if (pr, int(n), float(mu), s) not in have]
+            for pr in PROTOCOLS if (pr, int(n), float(mu), s) not in have and not a.no_work]
     pool_rows(todo, a.jobs, path, rows,
               lambda r: f"  {r['protocol']:9s} n={r['n']} mu={r['mu']:g} seed={r['seed']}: "
                         f"{r.get('jam_cpu_s') or 0:.1f} CPU s, z {r['z']:.4f}, dim S / Nc "
                         f"{r.get('dim_S_over_Nc')}, eta {r.get('eta_billiard')}")
     print(report(rows, WITH_S + COSTS))
+    if a.bench:
+        bench_summary(a.bench, rows)
     return 0
+
+
+def bench_summary(path: Path, rows: list) -> None:
+    """Mean jam CPU s and steps per (mu, n, protocol) over the seeds both protocols have,
+    into bench.json's section compaction, key ``validation`` (atomic)."""
+    import numpy as np
+    from forcespace.extend import write_json
+    data = json.loads(path.read_text()) if path.is_file() else {}
+    out = {"what": "paper_certified (old) and paper_fast_compaction (new) jammed alternately "
+                   "in one run, seeds 1..k (forcespace_studies.compaction_validation --with-s); "
+                   "mean jam CPU s (process CPU of the jam) and steps over the seeds both have"}
+    for mu in sorted({r["mu"] for r in rows}):
+        for n in sorted({r["n"] for r in rows if r["mu"] == mu}):
+            sub = [r for r in rows if r["mu"] == mu and r["n"] == n]
+            seeds = sorted({r["seed"] for r in sub if r["protocol"] == "reference"}
+                           & {r["seed"] for r in sub if r["protocol"] == "candidate"})
+            cell = {"seeds": len(seeds)}
+            for pr, key in (("reference", "old"), ("candidate", "new")):
+                mine = [r for r in sub if r["protocol"] == pr and r["seed"] in seeds]
+                cell[key] = {"cpu_s": float(np.mean([r["jam_cpu_s"] for r in mine])) if mine else None,
+                             "steps": float(np.mean([r["jam_steps"] for r in mine])) if mine else None}
+            out.setdefault(f"{mu:g}", {})[str(n)] = cell
+    data.setdefault("compaction", {})["validation"] = out
+    write_json(path, data, indent=2)
 
 
 if __name__ == "__main__":
