@@ -158,7 +158,8 @@ def bench_summary(path: Path, rows: list) -> None:
                            & {r["seed"] for r in sub if r["protocol"] == "candidate"})
             cell = {"seeds": len(seeds)}
             for pr, key in (("reference", "old"), ("candidate", "new")):
-                mine = [r for r in sub if r["protocol"] == pr and r["seed"] in seeds]
+                mine = [r for r in sub if r["protocol"] == pr and r["seed"] in seeds
+                        and r.get("jam_cpu_s") is not None]     # None: a packing reused
                 cell[key] = {"cpu_s": float(np.mean([r["jam_cpu_s"] for r in mine])) if mine else None,
                              "steps": float(np.mean([r["jam_steps"] for r in mine])) if mine else None}
             out.setdefault(f"{mu:g}", {})[str(n)] = cell
