@@ -76,8 +76,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 MUS = [0.0, 0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0]
 NMAX, ESS, TMAX = 4000, 100, 300.0     # samples cap, target ESS, CPU-ish seconds cap
 

@@ -277,8 +277,6 @@ def main(argv=None) -> int:
                     help="run LIGGGHTS again where a run's work directory is gone")
     ap.add_argument("--out", default="studies/results/spheres_liggghts_in_s")
     args = ap.parse_args(argv)
-    from forcespace.extend import write_json   # noqa: F401  (the package must import)
-
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = []

@@ -17,7 +17,6 @@ import argparse
 import json
 import resource
 import sys
-import time
 
 import numpy as np
 import polytopewalk as pw

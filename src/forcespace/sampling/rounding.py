@@ -455,8 +455,8 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     John's condition max_i a_i^T M^-1 a_i <= 1 + ``tol`` holds. Whatever the iteration
     count the ellipsoid is scaled to be inscribed: the rounding is never wrong, only
     more or less round. ``centred``: half the squared Newton decrement at which a centre
-    counts as found (default config.LEWIS_CENTRED). ``callback(stage, newton_steps, updates, excess)`` after every
-    Newton step and weight update. info: method, newton_steps, weight_updates,
+    counts as found (default config.LEWIS_CENTRED). ``callback(stage, newton_steps,
+    updates, excess)`` after every Newton step and weight update. info: method, newton_steps, weight_updates,
     john_excess, converged, cpu_s.
     """
     t0 = time.process_time()
