@@ -163,3 +163,11 @@ def test_a_polytope_only_sampler_refuses_spheres_naming_the_conic_samplers():
     with pytest.raises(InputError, match="BilliardWalk or HitAndRun") as err:
         PolytopeOnly(10, seed=1).compute(solid_cone())
     assert "PolytopeOnly" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_conic_billiards_tau_stage_shows_progress(capsys):
+    # its hit-and-run stage (10 d^2 + 8 d^2 steps per chain, before the first trajectory)
+    # ran silent: a 2000-sphere slice (dim 1244, ~1e8 steps) showed nothing for an hour
+    BilliardWalk(20, seed=1, progress=True).compute(solid_cone())
+    err = capsys.readouterr().err
+    assert "hit-and-run for tau (4 chains): 100%" in err

@@ -413,15 +413,21 @@ class ConicHitAndRunWalk(FrameWalk):
         with progress_bar(total=W.shape[0] * steps, desc=f"burn-in ({W.shape[0]} chains)",
                           unit="step", disable=not self.progress) as bar:
             for c in range(W.shape[0]):
-                done = 0
-                while done < steps:
-                    k = min(CONE_REFRESH * 64, steps - done)
-                    self._steps(c, k)
-                    done += k
-                    bar.update(k)
+                self._steps_shown(c, steps, bar)
         self.ok = tuple(a.copy() for a in self.chain_arrays())
         self.times["burn_in_s"] = time.perf_counter() - t1
         self.cpu["burn_in_s"] = time.process_time() - c1
+
+    def _steps_shown(self, c: int, n: int, bar) -> None:
+        """``n`` hit-and-run steps of chain c in calls of CONE_REFRESH * 64 steps, ``bar``
+        advanced after each: the same steps as one call (the kernel recomputes x at the
+        start of a call and every CONE_REFRESH steps of it)."""
+        done = 0
+        while done < n:
+            k = min(CONE_REFRESH * 64, n - done)
+            self._steps(c, k)
+            done += k
+            bar.update(k)
 
     def _steps(self, c: int, n: int) -> int:
         return conic_har_steps(self.Tf, self.xc, self.cone, self.cone_mu, self.line,
@@ -492,11 +498,14 @@ class ConicBilliardWalk(ConicHitAndRunWalk):
         p, W = self.params, self.W
         spaced = max(50, self.d * self.d)
         seen = []
-        for c in range(W.shape[0]):
-            self._steps(c, p["har_burn_in"])
-            for _ in range(self.TAU_STATES):
-                self._steps(c, spaced)
-                seen.append(W[c].copy())
+        with progress_bar(total=W.shape[0] * (p["har_burn_in"] + self.TAU_STATES * spaced),
+                          desc=f"hit-and-run for tau ({W.shape[0]} chains)", unit="step",
+                          disable=not self.progress) as bar:
+            for c in range(W.shape[0]):
+                self._steps_shown(c, p["har_burn_in"], bar)
+                for _ in range(self.TAU_STATES):
+                    self._steps_shown(c, spaced, bar)
+                    seen.append(W[c].copy())
         seen = np.array(seen)
         rms = float(np.sqrt(((seen - seen.mean(0)) ** 2).sum(1).mean()))
         self.tau = p["tau_factor"] * rms
