@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -141,7 +142,11 @@ def main(argv=None) -> None:
             record_bench(args.bench, bench_row(out, name, args), args)
         return
     out.mkdir(parents=True, exist_ok=True)
-    jam(args, out, name)
+    try:
+        jam(args, out, name)
+    except KeyboardInterrupt as exc:     # Ctrl-C / kill -INT: one line, as the CLI says it
+        print("interrupted" + (f"; {exc}" if str(exc) else ""), file=sys.stderr)
+        raise SystemExit(130) from None
 
 
 if __name__ == "__main__":
