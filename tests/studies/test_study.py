@@ -75,7 +75,7 @@ def test_fig1_quick_local_pool_resumes_and_equals_dask(tmp_path, capsys):
     sub = [t for t in tasks if t.name in ("mu0.1_s1", "mu1_s2")]
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
                                   protocol="tcp", host="127.0.0.1",
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address=":0") as cluster:    # any free port
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
         remote = run_tasks(sub, tmp_path / "dask", scheduler=cluster.scheduler_address,
                            progress=False)
@@ -178,7 +178,7 @@ def test_fig3_quick_distances_boundary_and_uniformity(tmp_path, capsys):
     task = fig3.tasks(quick=True)[0]
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   protocol="tcp", host="127.0.0.1",
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address=":0") as cluster:    # any free port
         (remote,) = run_tasks([task], tmp_path / "dask", scheduler=cluster.scheduler_address,
                               progress=False)
     local = json.loads(task.result_path(out).read_text())
