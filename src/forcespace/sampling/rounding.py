@@ -456,8 +456,8 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     count the ellipsoid is scaled to be inscribed: the rounding is never wrong, only
     more or less round. ``centred``: half the squared Newton decrement at which a centre
     counts as found (default config.LEWIS_CENTRED). ``callback(stage, newton_steps,
-    updates, excess)`` after every Newton step and weight update. info: method, newton_steps, weight_updates,
-    john_excess, converged, cpu_s.
+    updates, excess)`` after every Newton step and weight update. info: method,
+    newton_steps, weight_updates, john_excess, converged, cpu_s.
     """
     t0 = time.process_time()
     H, s, y, _, _ = _live_start(H, s, y0, "lewis_rounding")
@@ -468,8 +468,10 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     while True:
         y, r, found = _centre(H, s, y, u, st, max_newton, callback,
                               config.LEWIS_CENTRED if centred is None else centred)
-        At, Lm = found if found is not None else \
-            (H / r[:, None], _cholesky(_weighted_gram(H / r[:, None], u)))
+        if found is None:                     # the Newton budget ran out before the centre
+            At = H / r[:, None]
+            found = At, _cholesky(_weighted_gram(At, u))
+        At, Lm = found
         X = sla.solve_triangular(Lm, At.T, lower=True, check_finite=False)
         lev = np.einsum("ij,ij->j", X, X)      # a_i^T M^-1 a_i
         st["excess"] = float(lev.max() - 1.0)
