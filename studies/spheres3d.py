@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from forcespace_studies.rows import append_row, read_rows
 from forcespace_studies.spheres3d import summarize, table
 
 
@@ -124,8 +125,7 @@ def main(argv=None) -> int:
         return 0
     (out / "packings").mkdir(parents=True, exist_ok=True)
     rows_file = out / "rows.jsonl"
-    rows = [json.loads(ln) for ln in rows_file.read_text().splitlines()] \
-        if rows_file.is_file() else []
+    rows = read_rows(rows_file)
     if args.report_only:
         summarize(rows, out, args.scene)
         print(table(rows))
@@ -139,8 +139,7 @@ def main(argv=None) -> int:
         for fut in as_completed(jobs):
             row = fut.result()
             rows.append(row)
-            with open(rows_file, "a") as f:
-                f.write(json.dumps(row) + "\n")
+            append_row(rows_file, row)
             print(f"mu {row['mu']:g} seed {row['seed']}: z {row['z']:.3f}, phi "
                   f"{row['packing_fraction']:.4f}, residual {row['residual']:.1e}, "
                   f"{row['cpu_seconds']:.0f} CPU s", file=sys.stderr, flush=True)

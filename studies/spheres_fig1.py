@@ -71,10 +71,11 @@ the plates' contacts are ~20 % of N_c. So:
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
+
+from forcespace_studies.rows import append_row, read_rows
 
 MUS = [0.0, 0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0]
 NMAX, ESS, TMAX = 4000, 100, 300.0     # samples cap, target ESS, CPU-ish seconds cap
@@ -128,8 +129,7 @@ def n500(out: Path) -> list[dict]:
     from spheres_s import analyse
 
     rows_file = out / "rule5_n500_rows.jsonl"
-    rows = [json.loads(ln) for ln in rows_file.read_text().splitlines()] \
-        if rows_file.is_file() else []
+    rows = read_rows(rows_file)
     done = {r["packing"] for r in rows}
     todo = sorted((out / "packings" / "n500").glob("mu*_s*.h5"),
                   key=lambda f: (f.stem.startswith("mu0_"), f.stem))
@@ -140,8 +140,7 @@ def n500(out: Path) -> list[dict]:
         row = analyse(path, None)
         row["seed"] = int(path.stem.split("_s")[1])
         rows.append(row)
-        with open(rows_file, "a") as f:
-            f.write(json.dumps(row) + "\n")
+        append_row(rows_file, row)
         print(f"[{k + 1}/{len(todo)}] {path.name}: n {row['n_interior']}, N_c "
               f"{row['n_contacts']}, 3Nc-6n {row['count_3Nc_minus_6n']}, dim S "
               f"{row['dim_S']}, {row['cpu_seconds']:.0f} CPU s", file=sys.stderr, flush=True)
@@ -161,8 +160,7 @@ def main(argv=None) -> int:
     rows_file = out / "fig1_rows.jsonl"
     if args.n500:
         n500(out)
-    rows = [json.loads(ln) for ln in rows_file.read_text().splitlines()] \
-        if rows_file.is_file() else []
+    rows = read_rows(rows_file)
     if not args.report and not args.n500:
         done = {(r["mu"], r["seed"]) for r in rows}
         todo = [(mu, s) for s in args.seeds for mu in args.mu if (mu, s) not in done]
@@ -174,8 +172,7 @@ def main(argv=None) -> int:
             t0 = time.time()
             row = one(mu, seed, out)
             rows.append(row)
-            with open(rows_file, "a") as f:
-                f.write(json.dumps(row) + "\n")
+            append_row(rows_file, row)
             print(f"[{k + 1}/{len(todo)}] mu {mu:g} seed {seed}: z {row['z']:.3f}, dim S "
                   f"{row['dim_S']} (3Nc-6n {row['count_3Nc_minus_6n']}), eta "
                   f"{row['eta']:.4g} (ESS {row['ess']}, {row['sample_status']}), "

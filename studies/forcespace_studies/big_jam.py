@@ -25,6 +25,8 @@ import sys
 import time
 from pathlib import Path
 
+from .rows import append_row, read_rows
+
 
 def name_of(scene: str, n: int, mu: float, seed: int) -> str:
     """File stem of one jam, e.g. ``paper_fast_compaction_n20000_mu0.1_s1``."""
@@ -53,10 +55,8 @@ def checkpoint_steps(path: Path) -> int | None:
 
 def cpu_so_far(log: Path) -> tuple[float, int]:
     """CPU s summed over the processes logged in ``log`` and their number."""
-    if not log.is_file():
-        return 0.0, 0
-    rows = [json.loads(x) for x in log.read_text().splitlines() if x.strip()]
-    return sum(r["cpu_s"] for r in rows), len(rows)
+    rows = read_rows(log)
+    return sum((r["cpu_s"] for r in rows), 0.0), len(rows)
 
 
 def jam(args, out: Path, name: str) -> None:
@@ -76,10 +76,9 @@ def jam(args, out: Path, name: str) -> None:
         packing = build_packing(Setup.from_scene(scene), show_progress=True, checkpoint=str(check))
     finally:
         steps = packing.meta["steps"] if packing is not None else checkpoint_steps(check)
-        with open(out / f"{name}.cpu.jsonl", "a") as fh:
-            fh.write(json.dumps({"cpu_s": time.process_time() - t0, "steps": steps,
-                                 "finished": packing is not None,
-                                 "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}) + "\n")
+        append_row(out / f"{name}.cpu.jsonl", {
+            "cpu_s": time.process_time() - t0, "steps": steps, "finished": packing is not None,
+            "utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())})
     Path(args.packings).mkdir(parents=True, exist_ok=True)
     write_packing(packing, Path(args.packings) / f"{name}.h5")
     cpu, processes = cpu_so_far(out / f"{name}.cpu.jsonl")
@@ -88,15 +87,13 @@ def jam(args, out: Path, name: str) -> None:
            "jam_cpu_s": cpu, "processes": processes, "steps": int(m["steps"]), "jam_end": m["jam_end"],
            "static_residual": float(m["static_residual"]), "z": float(packing.coordination()),
            "phi": float(packing.packing_fraction()), "rattler_fraction": float(packing.rattlers().mean())}
-    with open(out / "rows.jsonl", "a") as fh:
-        fh.write(json.dumps(row) + "\n")
+    append_row(out / "rows.jsonl", row)
     print(json.dumps(row))
 
 
 def bench_row(out: Path, name: str, args) -> dict:
     """The jam's row for bench.json: the finished row of rows.jsonl, else its progress."""
-    rows = [json.loads(x) for x in (out / "rows.jsonl").read_text().splitlines()
-            ] if (out / "rows.jsonl").is_file() else []
+    rows = read_rows(out / "rows.jsonl")
     done = [r for r in rows if name_of(r["scene"], r["n"], r["mu"], r["seed"]) == name]
     if done:
         r = done[-1]
