@@ -302,6 +302,31 @@ def test_a_target_ess_run_rerun_killed_or_interrupted_resumes_to_the_straight_ru
         assert np.array_equal(read_ensemble(out).samples, X)
 
 
+def test_a_ctrl_c_while_a_run_finishes_keeps_its_samples_and_says_where(tmp_path,
+                                                                       monkeypatch):
+    # a Ctrl-C that landed after the last draw (the run's diagnostics) said only
+    # "interrupted": a bare KeyboardInterrupt, no line on where the samples are
+    from forcespace.engine.interrupts import Interrupted
+    from forcespace.sampling import driver
+    _, prob = grooves([0.3, 0.5], 0.2)
+    straight = HitAndRun(n=60, seed=1, thin=1).compute(prob, output=tmp_path / "full.h5")
+    out = tmp_path / "e.h5"
+    real = driver.diagnostics
+
+    def ctrl_c(*a, **k):
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as m:
+        m.setattr(driver, "diagnostics", ctrl_c)
+        with pytest.raises(Interrupted, match=f"60 samples in {out}; rerun"):
+            HitAndRun(n=60, seed=1, thin=1, checkpoint_every=1000).compute(prob, output=out)
+    assert driver.diagnostics is real
+    assert np.array_equal(read_ensemble(out).samples, straight.ensemble.samples)
+    again = HitAndRun(n=60, seed=1, thin=1).compute(prob, output=out)   # finishes it
+    assert (again.success, again.message) == (straight.success, straight.message)
+    assert again.ensemble.diagnostics == straight.ensemble.diagnostics
+
+
 @pytest.mark.parametrize("sampler", ["hit-and-run", "billiard", "relax"])
 def test_every_sampler_on_a_determinate_S_gives_its_one_point(tmp_path, sampler):
     """The frictionless paper packing's slice (dim S = 0): every sample is the jammed

@@ -260,12 +260,18 @@ def _draw(walk, problem, stop, output, old, every, progress, t0) -> Ensemble:
         except BaseException:
             sink.flush()       # finished samples are never lost
             raise
-    status, message = outcome if outcome is not None else stop.at_cap(stop.n, samples)
-    ens = _ensemble(walk, problem, old, sink, status, message, output)
+    try:
+        status, message = outcome if outcome is not None else stop.at_cap(stop.n, samples)
+        ens = _ensemble(walk, problem, old, sink, status, message, output)
+    except KeyboardInterrupt:  # Ctrl-C while the run's diagnostics are computed
+        with deferred_sigint():
+            sink.flush()       # the samples are kept; the rerun finishes the run
+        raise Interrupted(_where(have + len(sink.drawn), output)) from None
     diag = dumps(ens.diagnostics)
-    if sink.buffer or sink.drawn or (old is not None
-                                     and old.ensemble.attrs.get("diagnostics") != diag):
-        sink.flush(diag)
+    with deferred_sigint():    # the last write is short: finished, not torn
+        if sink.buffer or sink.drawn or (old is not None
+                                         and old.ensemble.attrs.get("diagnostics") != diag):
+            sink.flush(diag)
     return ens
 
 
