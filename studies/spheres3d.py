@@ -25,7 +25,6 @@ convention of ``forcespace info``: a rattler carries no force-bearing contact), 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -117,9 +116,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out)
     if args.reference:
-        def read(d):
-            return [json.loads(ln) for ln in (Path(d) / "rows.jsonl").read_text().splitlines()]
-        text = validation(read(out), read(args.reference))
+        text = validation(read_rows(out / "rows.jsonl", required=True),
+                          read_rows(Path(args.reference) / "rows.jsonl", required=True))
         (out / "validation.md").write_text(text)
         print(text)
         return 0

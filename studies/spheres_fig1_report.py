@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from forcespace_studies.rows import read_rows
+
 
 def by_mu(rows):
     """{mu: [rows]} (one row per packing; the last one wins)."""
@@ -341,10 +343,7 @@ def disks_fig1(d: Path):
 def write_report(rows, out: Path) -> None:
     """OUT/spheres_fig1.md, fig1.png/pdf, verdicts.json, REPORT.md from the n = 100 rows
     and, if there, OUT/rule5_n500_rows.jsonl (rule 5')."""
-    import json
-    f500 = out / "rule5_n500_rows.jsonl"
-    rows500 = [json.loads(ln) for ln in f500.read_text().splitlines()] if f500.is_file() \
-        else []
+    rows500 = read_rows(out / "rule5_n500_rows.jsonl")
     groups = by_mu(rows)
     verdicts = ["| rule | claim | measured (n = 100 spheres unless said) | verdict |",
                 "|---|---|---|---|", *verdict_rows(rows, rows500)]

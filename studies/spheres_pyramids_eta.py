@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from forcespace_studies.rows import append_row, read_rows
+
 
 def runs(path: Path, full: bool, n: int):
     import forcespace as fs
@@ -73,10 +75,9 @@ def main(argv=None) -> int:
     rows_file = args.out / "rows.jsonl"
     for path in args.packings:
         for row in runs(path, args.full, args.n):
-            with open(rows_file, "a") as f:
-                f.write(json.dumps(row) + "\n")
+            append_row(rows_file, row)
             print(json.dumps(row), file=sys.stderr, flush=True)
-    rows = [json.loads(ln) for ln in rows_file.read_text().splitlines()]
+    rows = read_rows(rows_file)
     (args.out / "pyramids_eta.md").write_text(table(rows))
     print(table(rows))
     return 0

@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from forcespace_studies.rows import append_row
+
 
 def analyse(path: Path, mu: float | None) -> dict:
     import forcespace as fs
@@ -120,18 +122,16 @@ def main(argv=None) -> int:
         (args.out / "pyramids.json").write_text(json.dumps(res, indent=1) + "\n")
         return 0
     rows = []
-    with open(args.out / "rows.jsonl", "a") as f:
-        for i, path in enumerate(args.packings):
-            for mu in (None,) if args.override_mu is None else (None, args.override_mu):
-                if mu is not None and rows[-1]["packing_mu"] != 0:
-                    continue            # friction is switched on in frictionless ones only
-                row = analyse(path, mu)
-                rows.append(row)
-                f.write(json.dumps(row) + "\n")
-                f.flush()
-                print(f"[{i + 1}/{len(args.packings)}] {path.name} mu {row['mu']:g}: "
-                      f"N_c {row['n_contacts']}, dim S {row['dim_S']}, "
-                      f"{row['cpu_seconds']:.1f} CPU s", flush=True)
+    for i, path in enumerate(args.packings):
+        for mu in (None,) if args.override_mu is None else (None, args.override_mu):
+            if mu is not None and rows[-1]["packing_mu"] != 0:
+                continue            # friction is switched on in frictionless ones only
+            row = analyse(path, mu)
+            rows.append(row)
+            append_row(args.out / "rows.jsonl", row)
+            print(f"[{i + 1}/{len(args.packings)}] {path.name} mu {row['mu']:g}: "
+                  f"N_c {row['n_contacts']}, dim S {row['dim_S']}, "
+                  f"{row['cpu_seconds']:.1f} CPU s", flush=True)
     (args.out / "spheres_s.md").write_text(table(rows))
     print(np.mean([r["cpu_seconds"] for r in rows]), "CPU s per analysis on average")
     return 0

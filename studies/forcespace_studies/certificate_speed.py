@@ -19,13 +19,13 @@ packing is the same as at 1e-4) to stdout. Usage::
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 from pathlib import Path
 
 from .certificate_validation import mobilised_fraction
 from .protocol_validation import pool_rows, table
+from .rows import read_rows
 
 BEFORE = Path("studies/results/certificate_validation/rows.jsonl")
 QUANTITIES = (("z", "z"), ("phi", "packing fraction"), ("rattler_fraction", "rattler fraction"),
@@ -95,7 +95,7 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     path = a.out / "rows.jsonl"
-    rows = [json.loads(x) for x in path.read_text().splitlines()] if path.is_file() else []
+    rows = read_rows(path)
     have = {(r["n"], r["mu"], r["seed"]) for r in rows if r["factor"] == a.factor}
     todo = [(one, (a.factor, int(n), float(mu), s)) for n in a.sizes.split(",")
             for mu in a.mus.split(",") for s in range(1, a.seeds + 1)
@@ -103,7 +103,7 @@ def main(argv=None) -> int:
     pool_rows(todo, a.jobs, path, rows,
               lambda r: f"  n={r['n']} mu={r['mu']:g} seed={r['seed']}: {r['jam_cpu_s']:.1f} "
                         f"CPU s, {r['jam_steps']} steps, z {r['z']:.4f}")
-    before = [json.loads(x) for x in BEFORE.read_text().splitlines()]
+    before = read_rows(BEFORE, required=True)
     print(report([r for r in rows if r["factor"] == a.factor], before, a.factor))
     return 0
 

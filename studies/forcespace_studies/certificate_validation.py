@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import os
 import sys
 import time
@@ -46,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from .protocol_validation import pool_rows
+from .rows import read_rows
 
 PROTOCOLS = {"reference": "paper_fast", "candidate": "paper_certified"}
 CAPS = {"billiard": 20000}
@@ -133,7 +133,7 @@ def size_rows(path) -> dict:
 def run(sizes, mus, seeds, jobs, out: Path, reference_from=None) -> list:
     """Every (protocol, n, mu, seed) not yet in OUT/rows.jsonl, smallest n first."""
     path = out / "rows.jsonl"
-    rows = [json.loads(x) for x in path.read_text().splitlines()] if path.is_file() else []
+    rows = read_rows(path)
     have = {(r["protocol"], r["n"], r["mu"], r["seed"]) for r in rows}
     ref = size_rows(reference_from)
     todo = [(pr, n, mu, s) for n in sizes for mu in mus for s in range(1, seeds + 1)

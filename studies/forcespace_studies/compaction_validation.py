@@ -33,6 +33,7 @@ from pathlib import Path
 from .certificate_speed import QUANTITIES
 from .certificate_validation import mobilised_fraction
 from .protocol_validation import pool_rows, table
+from .rows import read_rows
 
 PROTOCOLS = {"reference": "paper_certified", "candidate": "paper_fast_compaction"}
 SHIPPED = Path("studies/results/certificate_speed/rows.jsonl")   # paper_certified at 1e-2
@@ -68,9 +69,7 @@ def one_with_s(protocol: str, n: int, mu: float, seed: int, out: str) -> dict:
 
 def shipped_rows() -> list:
     """paper_certified's rows of the certificate-speed study (the shipped scene)."""
-    if not SHIPPED.is_file():
-        return []
-    rows = [json.loads(x) for x in SHIPPED.read_text().splitlines()]
+    rows = read_rows(SHIPPED)
     return [dict(r, protocol="reference", scene=PROTOCOLS["reference"],
                  taken_from=str(SHIPPED)) for r in rows if r.get("factor") == 100.0]
 
@@ -107,7 +106,7 @@ def main(argv=None) -> int:
     a.out = a.out or Path("studies/results/compaction_validation")
     a.out.mkdir(parents=True, exist_ok=True)
     path = a.out / "rows.jsonl"
-    rows = [json.loads(x) for x in path.read_text().splitlines()] if path.is_file() else []
+    rows = read_rows(path)
     have = {(r["protocol"], r["n"], r["mu"], r["seed"]) for r in rows}
     shipped = [r for r in shipped_rows() if ("reference", r["n"], r["mu"], r["seed"]) not in have]
     have |= {(r["protocol"], r["n"], r["mu"], r["seed"]) for r in shipped}
@@ -127,7 +126,7 @@ def with_s(a) -> int:
     out = a.out or Path("studies/results/compaction_validation_s")
     out.mkdir(parents=True, exist_ok=True)
     path = out / "rows.jsonl"
-    rows = [json.loads(x) for x in path.read_text().splitlines()] if path.is_file() else []
+    rows = read_rows(path)
     have = {(r["protocol"], r["n"], r["mu"], r["seed"]) for r in rows}
     todo = [(one_with_s, (pr, int(n), float(mu), s, str(out))) for n in a.sizes.split(",")
             for mu in a.mus.split(",") for s in range(1, a.seeds + 1)

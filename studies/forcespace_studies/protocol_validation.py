@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import math
 import os
 import sys
@@ -48,6 +47,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
+
+from .rows import append_row, read_rows
 
 REFERENCE = {"solver.max_sweeps": 1000, "solver.tolerance_moving": 0.0,
              "solver.moving_speed": 0.0, "solver.max_sweeps_moving": 0,
@@ -126,7 +127,7 @@ def run(sizes, seeds, jobs: int, path: Path, protocols=("reference", "candidate"
     """Jam and measure every (protocol, n, seed) not yet in ``path``; ``overrides``:
     {protocol: scene overrides} (default: those of :func:`one`); ``keep``: a study
     directory the candidate's packings are kept in (:func:`one`)."""
-    rows = [json.loads(line) for line in path.read_text().splitlines()] if path.is_file() else []
+    rows = read_rows(path)
     have = {(r["protocol"], r["n"], r["seed"]) for r in rows}
     todo = [(pr, n, s) for n in sizes for s in range(1, seeds + 1)
             for pr in protocols if (pr, n, s) not in have]
@@ -153,8 +154,7 @@ def pool_rows(tasks, jobs: int, path: Path, rows: list, said) -> list:
         for fut in as_completed(futures):
             row = fut.result()
             rows.append(row)
-            with path.open("a") as fh:
-                fh.write(json.dumps(row) + "\n")
+            append_row(path, row)
             print(said(row), flush=True)
     return rows
 

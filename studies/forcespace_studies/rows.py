@@ -7,9 +7,12 @@ import json
 from pathlib import Path
 
 
-def read_rows(path) -> list[dict]:
-    """The rows of a JSON-lines file (blank lines skipped), [] while it does not exist."""
+def read_rows(path, required: bool = False) -> list[dict]:
+    """The rows of a JSON-lines file (blank lines skipped), [] while it does not exist
+    (``required``: FileNotFoundError naming the file instead)."""
     path = Path(path)
+    if required and not path.is_file():
+        raise FileNotFoundError(f"{path}: no such rows file (JSON lines)")
     return [json.loads(ln) for ln in path.read_text().splitlines() if ln.strip()] \
         if path.is_file() else []
 

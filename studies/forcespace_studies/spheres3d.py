@@ -139,7 +139,7 @@ def summarize(rows, out, scene: str) -> dict:
             "`spheres3d.md` (mean ± standard error over the seeds). z counts the plate "
             "contacts and leaves the rattlers out, as `forcespace info`.\n\n" + table(rows)
             + "\nCPU s of a jam: its process's CPU time (a jam resumed from a checkpoint "
-            f"counts only its last part). Seeds per mu: "
+            "counts only its last part). Seeds per mu: "
             + ", ".join(f"{d['seeds']} at mu = {m:g}" for m, d in pm.items()) + ".")
     write_section(out, "spheres3d", "Frictional spheres (3-D): z, packing fraction, "
                   "rattlers against mu", text, vs, numbers, [], rules_version=RULES_VERSION)
