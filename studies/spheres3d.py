@@ -116,8 +116,11 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out)
     if args.reference:
-        text = validation(read_rows(out / "rows.jsonl", required=True),
-                          read_rows(Path(args.reference) / "rows.jsonl", required=True))
+        try:
+            text = validation(read_rows(out / "rows.jsonl", required=True),
+                              read_rows(Path(args.reference) / "rows.jsonl", required=True))
+        except FileNotFoundError as exc:
+            ap.error(str(exc))
         (out / "validation.md").write_text(text)
         print(text)
         return 0
