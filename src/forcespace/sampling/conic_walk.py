@@ -19,11 +19,16 @@ keeps uniformity.
 Rounding fit to the conic set: each cone replaced by its circumscribed k-sided pyramid
 (k = ``PYRAMID_SIDES``, the regular k-gon around the circle |f_t| = mu fn, one side
 touching it where the centre's f_t points: tight where S presses against its cone) gives a
-polytope that holds S and lies within the cones of mu / cos(pi / k); its inscribed
-ellipsoid (the exact MVE, or John's by Lewis weights above ``config.MVE_MAX_ROWS`` rows:
-:func:`forcespace.sampling.rounding.mve_rounding`) is the rounding (any affine map keeps
-uniformity; the fit only sets the speed). The chains start at the analysis' certified
-centre (inside S; the ellipsoid's centre may lie just outside it).
+polytope that holds S and lies within the cones of mu / cos(pi / k); an ellipsoid inscribed
+in it is the rounding (any affine map keeps uniformity; the fit only sets the speed): the
+exact MVE (:func:`forcespace.sampling.rounding.mve_rounding`) up to ``config.MVE_MAX_ROWS``
+rows, above them the Dikin ellipsoid at the analytic centre (the polytopes' billiard's
+rounding on its large path, :func:`forcespace.sampling.rounding.lewis_rounding` without
+weight updates; John's by Lewis weights took 80 iterations, 35 CPU s at dim 233 and did
+not converge in 300 at dim 1244). Both are computed in the frame of the Dikin ellipsoid
+at the centre (:func:`dikin_factor`), where S's thin directions are not ill-conditioned.
+The hit-and-run chains start at the analysis' certified centre (inside S; the
+ellipsoid's centre may lie just outside it), the billiard's dispersed about it.
 
 The walk runs through the one sampling driver (:func:`forcespace.sampling.driver.run_walk`,
 via :class:`~forcespace.sampling.hit_and_run.HitAndRun`): files, resume, diagnostics,
@@ -52,6 +57,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import scipy.linalg as sla
 
 from .. import config
 from ..errors import InputError, NumericalError
@@ -60,9 +66,9 @@ from ..linalg import onto_affine_hull
 from ..progress import progress as progress_bar
 from ..space import conic
 from ..space.lp import inner_ball
-from ..streams import chain_states
+from ..streams import chain_states, start_generator
 from .frame import Frame, FrameWalk, sampled_analysis
-from .rounding import mve_rounding
+from .rounding import lewis_rounding_with_progress, mve_rounding
 from .xoshiro import uniform, unit_direction
 
 PYRAMID_SIDES = 16     # sides of the circumscribed pyramids the rounding is fit to
@@ -194,10 +200,12 @@ def first_hit(x, q, cone, mu, line):
 
 
 @kernel
-def reflect(T, x, v, q, j, kind, mu):
+def reflect(T, G, x, v, q, j, kind, mu):
     """Reflect the velocity v (d,) in place off the surface of contact j's constraint at x
-    (kind 0: the cone |f_t| <= mu fn, normal (-mu, f_t / |f_t|); 1: fn >= 0, normal
-    (-1, 0, 0)), mapped to w by T^T; q = T v recomputed (3m,)."""
+    (kind 0: the cone |f_t| <= mu fn, normal g = (-mu, f_t / |f_t|); 1: fn >= 0, normal
+    (-1, 0, 0)), mapped to w by T^T: v -= 2 (g.T_j v) / (g.T_j T_j^T g) T_j^T g; q = T v
+    (3m,) kept: q -= the same factor x G_j g, G = T T^T (3m, 3m) (O(m + d), not the
+    O(m d) of T v), or recomputed as T v where G is empty (too large to keep)."""
     n3, d = T.shape
     g = np.zeros(3)
     g[0] = -mu if kind == 0 else -1.0
@@ -212,9 +220,15 @@ def reflect(T, x, v, q, j, kind, mu):
     for i in range(d):
         nn += nw[i] * nw[i]
         vn += nw[i] * v[i]
-    if nn > 0.0:
-        for i in range(d):
-            v[i] -= 2.0 * vn / nn * nw[i]
+    if nn <= 0.0:
+        return
+    a = 2.0 * vn / nn
+    for i in range(d):
+        v[i] -= a * nw[i]
+    if G.shape[0] == n3:
+        for r in range(n3):
+            q[r] -= a * (g[0] * G[3 * j, r] + g[1] * G[3 * j + 1, r] + g[2] * G[3 * j + 2, r])
+        return
     for r in range(n3):
         acc = 0.0
         for i in range(d):
@@ -223,12 +237,13 @@ def reflect(T, x, v, q, j, kind, mu):
 
 
 @kernel
-def conic_billiard_steps(T, xc, cone, mu, line, w, state, n_traj, tau, max_refl, counts):
+def conic_billiard_steps(T, G, xc, cone, mu, line, w, state, n_traj, tau, max_refl, counts):
     """Run ``n_traj`` billiard trajectories on S from w (d,) in place: velocity g ~ N(0, I)
     in w, length tau |g| / sqrt(d) (reflective HMC), specular reflections off the cones
     and the fn >= 0 faces (:func:`reflect`); a trajectory with more than ``max_refl``
     reflections is discarded (the chain stays). counts (3,) int64 += trajectories,
-    reflections, discarded. T (3m, d) C order, xc (3m,) [F0]: x = xc + T w."""
+    reflections, discarded. T (3m, d) C order, xc (3m,) [F0]: x = xc + T w; G = T T^T
+    (3m, 3m) C order, or (0, 0) (:func:`reflect`)."""
     n3, d = T.shape
     v, w0, q = np.zeros(d), np.zeros(d), np.zeros(n3)
     for _ in range(n_traj):
@@ -254,7 +269,7 @@ def conic_billiard_steps(T, xc, cone, mu, line, w, state, n_traj, tau, max_refl,
                 counts[2] += 1
                 break
             j = cone[k] if kind == 0 else line[k]
-            reflect(T, x, v, q, j, kind, mu[k] if kind == 0 else 0.0)
+            reflect(T, G, x, v, q, j, kind, mu[k] if kind == 0 else 0.0)
         counts[0] += 1
         counts[1] += refl
     return counts[2]
@@ -266,6 +281,23 @@ def cone_chords(P, Q, mu):
     P, Q = np.asarray(P, float).reshape(-1, 3), np.asarray(Q, float).reshape(-1, 3)
     out = np.array([cone_interval(*p, *q, float(m)) for p, q, m in zip(P, Q, np.ravel(mu))])
     return out[:, 0], out[:, 1]
+
+
+def conic_dispersed_starts(T, x0, w0, cone, mu, line, chains: int, seed: int):
+    """(W (chains, d), t (chains,)): the billiard's over-dispersed starts, as the
+    polytopes' (:func:`forcespace.sampling.billiard.dispersed_starts`): per chain a random
+    direction u (isotropic in w) and the point w0 + 0.9 t u, t the exact distance from w0
+    (x0 = xc + T w0, inside S) to S's boundary along u (:func:`first_hit`; 1 where S is
+    unbounded): t is S's size about w0 in w."""
+    rng = start_generator(seed)
+    W, ts = np.tile(w0, (chains, 1)), np.ones(chains)
+    for c in range(chains):
+        u = rng.normal(size=w0.size)
+        u /= np.linalg.norm(u)
+        t = first_hit(x0, T @ u, cone, mu, line)[0]
+        ts[c] = t if np.isfinite(t) else 1.0
+        W[c] += 0.9 * ts[c] * u
+    return W, ts
 
 
 # ----------------------------------------------------------------------------
@@ -331,16 +363,35 @@ def pyramid_rounding(fr: Frame, cone, problem, progress: bool = False, method=No
     s = np.concatenate([-(rows * fr.xc[cols]).sum(1), fr.s0])
     live = np.linalg.norm(H, axis=1) > config.FLAT_ROW
     H, s = H[live], s[live]
-    method = method or ("mve" if H.shape[0] <= config.MVE_MAX_ROWS else "john")
+    method = method or ("mve" if H.shape[0] <= config.MVE_MAX_ROWS else "lewis")
     try:
         if not np.all(s > 0):
             raise InputError("rounding", "y0", "the centre is on a pyramid's face")
-        y0, L, info = mve_rounding(H * scale, s, np.zeros(d), progress=progress,
-                                   method=method)
+        R = dikin_factor(H * scale, s)
+        Hu = sla.solve_triangular(R, (H * scale).T, trans="T").T
+        if method == "lewis":
+            u0, L, info = lewis_rounding_with_progress(Hu, s, np.zeros(d), 0, progress,
+                                                       config.LEWIS_CENTRED_LARGE)
+        else:
+            u0, L, info = mve_rounding(Hu, s, np.zeros(d), progress=progress, method=method)
+        y0, L = sla.solve_triangular(R, u0), sla.solve_triangular(R, L)
+        L = L @ np.linalg.svd(L)[2].T          # columns along the ellipsoid's axes, as
+                                                # before the preconditioning (coordinate
+                                                # hit-and-run's directions)
     except (InputError, NumericalError, np.linalg.LinAlgError) as exc:
         return np.zeros(d), np.eye(d), {"method": "none", "pyramid_sides": k,
                                         "reason": str(exc)}
     return y0, L, dict(info, pyramid_sides=k, n_rows=int(H.shape[0]))
+
+
+def dikin_factor(H, s) -> np.ndarray:
+    """R (d, d) upper triangular, R^T R = M = sum_i a_i a_i^T (a_i = H_i / s_i: the Dikin
+    ellipsoid {y : y^T M y <= 1} of {H y <= s} at y = 0, inside it). In u = R y it is the
+    unit ball: the John / MVE iteration then starts from a well-conditioned frame (S's
+    thin directions, e.g. a contact whose forces S fixes to ~1e-7 <Fn> in the
+    2000-sphere slice, made M's condition ~1e14 in y and its Newton steps stall)."""
+    At = H / s[:, None]
+    return sla.cholesky(At.T @ At, lower=False)
 
 
 SETUP_DESCRIPTION = {
@@ -461,15 +512,21 @@ class ConicHitAndRunWalk(FrameWalk):
 class ConicBilliardWalk(ConicHitAndRunWalk):
     """The billiard walk on S of spheres (reflective HMC lengths, specular reflections off
     the cones by their surface normal at the hit point; :func:`conic_billiard_steps`) in
-    the same rounded frame as :class:`ConicHitAndRunWalk`, whose hit-and-run does the
-    burn-in: ``har_burn_in`` coordinate steps per chain, then ``TAU_STATES`` states per
-    chain, ``thin``-of-hit-and-run apart, whose rms distance from their mean times
-    ``tau_factor`` is tau; then ``burn_in`` trajectories per chain. ``thin`` trajectories
-    of chain i % chains between its samples."""
+    the same rounded frame as :class:`ConicHitAndRunWalk`. Its chains start dispersed
+    (:func:`conic_dispersed_starts`) and tau is set as the 2-D polytope billiard sets it
+    (:meth:`forcespace.sampling.billiard.Chains.burn_in`): ``burn_in`` trajectories per
+    chain, the first half with a guess, tau fixed at the end of the third quarter to
+    ``tau_factor`` x the rms distance of that quarter's states from their mean, the last
+    quarter with it. The guess is ``tau_factor`` x the mean distance from the centre to
+    S's boundary along the starts' random directions (exact chords; the polytopes' guess,
+    tau_factor sqrt(d) x a certified inscribed radius, was 0.66 where 2.5 x S's rms
+    spread in w is 46 on a 100-sphere packing (mu = 0.03, seed 5, dim 154): tau ended at
+    7.3 and the chains had not mixed after 4000 samples, ESS 51, R-hat 1.07). ``thin``
+    trajectories of chain i % chains between its samples."""
 
     sampler = "billiard"
     STATE = ("w", "rng", "counts")
-    TAU_STATES = 8
+    fresh = False          # set by start_chains (not on resume): disperse, guess tau
 
     def default_params(self, options: dict) -> dict:
         if options.get("length") not in (None, "rehmc"):
@@ -480,10 +537,8 @@ class ConicBilliardWalk(ConicHitAndRunWalk):
             raise InputError("sample", "rounding_updates", "is not used on S of spheres "
                              "(rounded by the circumscribed pyramids)",
                              got=options["rounding_updates"])
-        d = max(self.d, 1)
         p = {"seed": 0, "chains": 4, "thin": 1, "burn_in": 50, "tau_factor": 2.5,
-             "length": "rehmc", "rounding": f"pyramids{PYRAMID_SIDES}",
-             "har_burn_in": max(500, 10 * d * d), "direction": "coordinate"}
+             "length": "rehmc", "rounding": f"pyramids{PYRAMID_SIDES}"}
         p.update({k: v for k, v in options.items() if v is not None
                   and k not in ("rounding_updates",)})
         return p
@@ -491,31 +546,29 @@ class ConicBilliardWalk(ConicHitAndRunWalk):
     def start_chains(self, H, s):
         self.counts = np.zeros((self.params["chains"], 3), np.int64)
         self.tau, self.max_refl = 1.0, 100 * max(self.d, 10)
+        self.fresh = True
         return super().start_chains(H, s)
 
     def _burn_in(self) -> None:
         t1, c1 = time.perf_counter(), time.process_time()
         p, W = self.params, self.W
-        spaced = max(50, self.d * self.d)
+        chains, n = W.shape[0], p["burn_in"]
+        q1, q2 = n // 2, n // 4
         seen = []
-        with progress_bar(total=W.shape[0] * (p["har_burn_in"] + self.TAU_STATES * spaced),
-                          desc=f"hit-and-run for tau ({W.shape[0]} chains)", unit="step",
+        with progress_bar(total=chains * n, unit="trajectory",
+                          desc=f"billiard burn-in ({chains} chains)",
                           disable=not self.progress) as bar:
-            for c in range(W.shape[0]):
-                self._steps_shown(c, p["har_burn_in"], bar)
-                for _ in range(self.TAU_STATES):
-                    self._steps_shown(c, spaced, bar)
-                    seen.append(W[c].copy())
-        seen = np.array(seen)
-        rms = float(np.sqrt(((seen - seen.mean(0)) ** 2).sum(1).mean()))
-        self.tau = p["tau_factor"] * rms
-        with progress_bar(total=W.shape[0] * p["burn_in"], unit="trajectory",
-                          desc=f"billiard burn-in ({W.shape[0]} chains)",
-                          disable=not self.progress) as bar:
-            for c in range(W.shape[0]):
-                for _ in range(p["burn_in"]):
-                    self._trajectories(c, 1)
-                    bar.update(1)
+            for part, keep in ((q1, False), (q2, True), (n - q1 - q2, False)):
+                for c in range(chains):
+                    for _ in range(part):
+                        self._trajectories(c, 1)
+                        if keep:
+                            seen.append(W[c].copy())
+                        bar.update(1)
+                if keep and seen:
+                    S = np.array(seen)
+                    self.tau = p["tau_factor"] * float(np.sqrt(((S - S.mean(0)) ** 2)
+                                                               .sum(1).mean()))
         self.counts[:] = 0
         self.ok = tuple(a.copy() for a in self.chain_arrays())
         self.times["burn_in_s"] = time.perf_counter() - t1
@@ -523,11 +576,22 @@ class ConicBilliardWalk(ConicHitAndRunWalk):
 
     def _start(self, xc, T) -> None:
         self.Tc = np.ascontiguousarray(T)
+        n3 = T.shape[0]
+        self.G = self.Tc @ self.Tc.T if 8.0 * n3 * n3 <= config.MAX_GRAM_BYTES else \
+            np.zeros((0, 0))
+        if self.fresh and self.d:
+            self.fresh = False
+            self.W[:], t = conic_dispersed_starts(self.Tc, xc + T @ self.w_start,
+                                                  self.w_start, self.cone, self.cone_mu,
+                                                  self.line, self.W.shape[0],
+                                                  self.params["seed"])
+            self.tau = self.params["tau_factor"] * float(np.mean(t))
         super()._start(xc, T)
 
     def _trajectories(self, c: int, n: int) -> None:
-        conic_billiard_steps(self.Tc, self.xc, self.cone, self.cone_mu, self.line, self.W[c],
-                             self.states[c], n, self.tau, self.max_refl, self.counts[c])
+        conic_billiard_steps(self.Tc, self.G, self.xc, self.cone, self.cone_mu, self.line,
+                             self.W[c], self.states[c], n, self.tau, self.max_refl,
+                             self.counts[c])
 
     def setup_extra(self) -> dict:
         return dict(super().setup_extra(), tau=self.tau, max_refl=self.max_refl)
