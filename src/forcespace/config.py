@@ -89,6 +89,12 @@ REDUCED_LP_MAX_DIM = 200    # [dimensions] up to this dim S, the range LPs of th
 UNBOUNDED_TOL = 1e-7        # [1] recession-cone LP optimum above this: S is unbounded
 INTERIOR_TOL = 1e-10        # [<Fn>] feasibility/optimality of the interior-point LPs without
                             # crossover that large analyses use (SWEEP_MIN_COLUMNS and up)
+INTERIOR_SOLVERS = {"strict_rows": "clarabel", "max_sum_fn": "highs-ipm",
+                    "centre": "highs-ipm"}
+                            # the interior point of each of those LPs ("clarabel" or
+                            # "highs-ipm"), the faster measured on the 5000-disk slice (CPU s,
+                            # HiGHS / Clarabel): strict rows 7.9 / 0.53, max sum fn 4.6 /
+                            # 5.7, centre 9.6 / 17.8 (studies/sampler_cost.md, issue 46)
 INTERIOR_CAP = 1e-5         # [<Fn>] slack cap of the one interior-point LP that finds the rows
                             # strict somewhere in S: a cap below every row's largest slack in a
                             # common point makes that point optimal (one solve decides all;

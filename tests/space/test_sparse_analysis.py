@@ -96,3 +96,56 @@ def test_sweep_null_space_matches_svd():
     step = vt[:rank].T @ ((u[:, :rank].T @ rhs) / s[:rank])
     assert np.abs(res.step - step).max() < 1e-10
     assert sweep_null_space(M, basis=False, chunk=5).rank == rank
+
+
+
+def test_strict_rows_by_clarabel_equal_highs_ipm_and_the_exact_test(monkeypatch):
+    """Issue 46: the large path's strict-rows LP by Clarabel (config.INTERIOR_SOLVERS; 15x
+    faster than HiGHS' IPX on the 5000-disk slice) gives a point of S and the same strict
+    rows as HiGHS' interior point, which are the rows the simplex test (tight_rows) finds
+    not implicit; max sum fn agrees across solvers."""
+    from forcespace.space.lp import unit_problem
+    from forcespace.space.questions import (interior_max_sum_fn, interior_strict_rows,
+                                            tight_rows)
+
+    prob = slice_problem(read_packing(PACKINGS / "paper_mu0.1.h5"), 28.0)
+    P, _ = unit_problem(prob)
+    implicit = tight_rows(P, config.IMPLICIT_TOL)
+    found, msum = {}, {}
+    for solver in ("clarabel", "highs-ipm"):
+        monkeypatch.setitem(config.INTERIOR_SOLVERS, "strict_rows", solver)
+        monkeypatch.setitem(config.INTERIOR_SOLVERS, "max_sum_fn", solver)
+        x, strict = interior_strict_rows(P)
+        assert P.violation(x) <= 10 * config.INTERIOR_TOL
+        found[solver] = strict
+        msum[solver] = interior_max_sum_fn(P)
+    assert np.array_equal(found["clarabel"], found["highs-ipm"])
+    assert np.array_equal(np.flatnonzero(~found["clarabel"]), implicit)
+    assert msum["clarabel"] == pytest.approx(msum["highs-ipm"], rel=1e-8)
+
+
+
+@pytest.mark.parametrize("solver", ["clarabel", "highs-ipm"])
+def test_interior_lp_ends_inside_its_optimal_face(solver):
+    """Both interior points end in the relative interior of a non-unique optimal face, what
+    the strict-rows LP relies on (a row strict somewhere is strict at the solution): max
+    s1 + s2 over s1 <= x, s2 <= 1 - x, 0 <= s <= 0.1, 0 <= x <= 1 (the strict-rows LP of
+    the interval [0, 1]); the optimal face is s = 0.1, x in [0.1, 0.9], whose vertices
+    leave one row tight. Infeasible: status 2, unbounded: 3."""
+    from forcespace.space.lp import solve_lp_interior
+
+    inf = np.inf
+    A_ub = sp.csr_matrix(np.array([[-1.0, 1.0, 0.0], [1.0, 0.0, 1.0]]))   # (x, s1, s2)
+    none = sp.csr_matrix((0, 3))
+    st, z = solve_lp_interior(np.array([0.0, -1.0, -1.0]), A_ub, np.array([0.0, 1.0]), none,
+                              np.zeros(0), np.zeros(3), np.array([1.0, 0.1, 0.1]), tol=1e-10,
+                              solver=solver)
+    assert st == 0 and z[1:] == pytest.approx([0.1, 0.1], abs=1e-8)
+    assert min(z[0] - z[1], 1 - z[0] - z[2]) > 0.05           # both rows strict
+    st, _ = solve_lp_interior(np.zeros(3), A_ub, np.array([-1.0, -1.0]), none, np.zeros(0),
+                              np.zeros(3), np.full(3, inf), tol=1e-10, solver=solver)
+    assert st == 2
+    st, _ = solve_lp_interior(np.array([-1.0, 0.0, 0.0]), none, np.zeros(0), none,
+                              np.zeros(0), np.zeros(3), np.full(3, inf), tol=1e-10,
+                              solver=solver)
+    assert st == 3

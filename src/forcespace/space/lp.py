@@ -268,12 +268,17 @@ def _exact(H, h, y, lam, scale) -> bool:
                     np.abs(h).max(initial=0.0))))
 
 
-def solve_lp_interior(c, A_ub, b_ub, A_eq, b_eq, lo, hi, tol: float = 1e-9):
-    """min c.x s.t. A_ub x <= b_ub, A_eq x = b_eq, lo <= x <= hi by HiGHS' interior point
-    **without crossover** (highspy): the solution lies in the relative interior of the
-    optimal face (strict complementarity), not at a vertex. Feasible and optimal to
-    ``tol`` (absolute; call on a problem at <Fn> = 1). Returns (status, x): status 0
-    optimal, 2 infeasible, 3 unbounded, 1 anything else (x None)."""
+def solve_lp_interior(c, A_ub, b_ub, A_eq, b_eq, lo, hi, tol: float = 1e-9,
+                      solver: str = "highs-ipm"):
+    """min c.x s.t. A_ub x <= b_ub, A_eq x = b_eq, lo <= x <= hi by an interior point
+    **without crossover**: the solution lies in the relative interior of the optimal face
+    (strict complementarity), not at a vertex. Feasible and optimal to ``tol`` (call on a
+    problem at <Fn> = 1). Returns (status, x): status 0 optimal, 2 infeasible, 3
+    unbounded, 1 anything else (x None). ``solver``: "highs-ipm" (HiGHS' IPX, highspy;
+    ``tol`` absolute) or "clarabel" (:func:`solve_lp_clarabel`); the analysis takes the
+    faster measured for each of its LPs (config.INTERIOR_SOLVERS)."""
+    if solver == "clarabel":
+        return solve_lp_clarabel(c, A_ub, b_ub, A_eq, b_eq, lo, hi, tol)
     import highspy
 
     A = sp.vstack([sp.csr_matrix(A_ub), sp.csr_matrix(A_eq)]).tocsc()
@@ -305,3 +310,49 @@ def solve_lp_interior(c, A_ub, b_ub, A_eq, b_eq, lo, hi, tol: float = 1e-9):
     if status in (M.kUnbounded, M.kUnboundedOrInfeasible):
         return 3, None
     return 1, None
+
+
+def solve_lp_clarabel(c, A_ub, b_ub, A_eq, b_eq, lo, hi, tol: float = 1e-9):
+    """:func:`solve_lp_interior` by Clarabel (a primal-dual interior point on the
+    homogeneous embedding, sparse LDL^T: its iterates follow the central path, so the
+    solution is in the relative interior of the optimal face). ``tol``: its feasibility
+    and gap tolerances (relative to max(1, |b|): call on a problem at <Fn> = 1). The
+    bounds become rows (b - A x in the non-negative cone). Measured on the 5000-disk
+    slice's strict-rows LP (21 568 unknowns): 0.49 CPU s, 13 iterations, against 6.7-7.1
+    for HiGHS' IPX, the same strict rows (studies/sampler_cost.md)."""
+    import clarabel
+
+    n = len(c)
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    fl, fh = np.flatnonzero(np.isfinite(lo)), np.flatnonzero(np.isfinite(hi))
+    eye = sp.identity(n, format="csr")
+    A = sp.vstack([sp.csr_matrix(A_eq), sp.csr_matrix(A_ub), -eye[fl], eye[fh]]).tocsc()
+    b = np.concatenate([b_eq, b_ub, -lo[fl], hi[fh]])
+    cones = [clarabel.ZeroConeT(A_eq.shape[0]),
+             clarabel.NonnegativeConeT(A.shape[0] - A_eq.shape[0])]
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    for name in ("tol_feas", "tol_gap_abs", "tol_gap_rel"):
+        setattr(settings, name, tol)
+    sol = clarabel.DefaultSolver(sp.csc_matrix((n, n)), np.asarray(c, float), A, b, cones,
+                                 settings).solve()
+    status = str(sol.status).split(".")[-1]
+    if status in ("Solved", "AlmostSolved"):
+        x = np.clip(np.asarray(sol.x, float), lo, hi)
+        if _clarabel_accepts(x, sol, c, A_ub, b_ub, A_eq, b_eq, tol):
+            return 0, x
+    return {"PrimalInfeasible": 2, "DualInfeasible": 3}.get(status, 1), None
+
+
+def _clarabel_accepts(x, sol, c, A_ub, b_ub, A_eq, b_eq, tol: float) -> bool:
+    """Whether Clarabel's x (clipped to its bounds) is an answer to ``tol``: equalities and
+    inequalities met to 10 tol max(1, |b|) (absolute at <Fn> = 1, as HiGHS' tolerances),
+    duality gap below 1e3 tol max(1, |c.x|). Its "AlmostSolved" (it stalls a step short
+    of its own 1e-10: the 5000-disk slice's strict-rows LP, primal residual 2e-15) is
+    taken only so."""
+    scale = max(1.0, float(np.abs(b_eq).max(initial=0.0)), float(np.abs(b_ub).max(initial=0.0)))
+    primal = max(float(np.abs(A_eq @ x - b_eq).max(initial=0.0)),
+                 float((A_ub @ x - b_ub).max(initial=0.0)))
+    value = float(np.dot(c, x))
+    gap = abs(float(sol.obj_val) - float(sol.obj_val_dual))
+    return primal <= 10 * tol * scale and gap <= 1e3 * tol * max(1.0, abs(value))

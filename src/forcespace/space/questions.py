@@ -147,7 +147,7 @@ def interior_strict_rows(problem: StaticsProblem):
         np.zeros(p), sp.hstack([problem.A, sp.csr_matrix((problem.A.shape[0], p))]).tocsr(),
         problem.b, np.concatenate([lo, np.zeros(p)]),
         np.concatenate([hi, np.full(p, config.INTERIOR_CAP * scale)]),
-        tol=config.INTERIOR_TOL * scale)
+        tol=config.INTERIOR_TOL * scale, solver=config.INTERIOR_SOLVERS["strict_rows"])
     if st != 0:
         return None
     x = z[:m2]
@@ -162,7 +162,8 @@ def interior_max_sum_fn(problem: StaticsProblem):
     c = np.zeros(problem.n_columns)
     c[0::2] = -1.0
     st, x = solve_lp_interior(c, G, np.zeros(G.shape[0]), problem.A, problem.b, lo, hi,
-                              tol=config.INTERIOR_TOL * problem.force_scale)
+                              tol=config.INTERIOR_TOL * problem.force_scale,
+                              solver=config.INTERIOR_SOLVERS["max_sum_fn"])
     return float(-c @ x) if st == 0 else None
 
 
@@ -558,7 +559,8 @@ def centre_and_radius(problem: StaticsProblem, N=None, implicit_rows=None,
     if interior:        # any optimal point will do: no crossover to a vertex
         st, z = solve_lp_interior(c, Aub, np.zeros(free.size), Aeq, rhs, np.append(lo, 0.0),
                                   np.append(hi, r_max),
-                                  tol=config.INTERIOR_TOL * problem.force_scale)
+                                  tol=config.INTERIOR_TOL * problem.force_scale,
+                                  solver=config.INTERIOR_SOLVERS["centre"])
         if st == 0:
             return z[:m2], float(z[-1])
     # large problems: interior point first, as for the other LPs of the analysis (5000-disk
