@@ -446,6 +446,37 @@ def test_large_path_ensemble_agrees_with_the_default_path(monkeypatch):
     assert abs(eta_o - eta_n) < 4 * np.hypot(se_o, se_n), (eta_o, se_o, eta_n, se_n)
 
 
+def test_large_path_walk_proves_S_bounded_without_the_boundedness_LP(monkeypatch):
+    """Issue 46: on the large path the frame's analysis skips its boundedness LP and the
+    Lewis rounding proves S bounded (info["bounded"]): the same samples, bit for bit, as
+    the walk given an analysis that ran the LP; an unbounded S (a lattice in a box, mu =
+    0.3) is still refused, by the exact recession-cone LP."""
+    from paths import PACKINGS
+    from ensemble_cases import lattice_in_box
+    from forcespace import read_packing, slice_problem
+    from forcespace.errors import InputError
+    from forcespace.space import force_space
+    from forcespace.space.force_space import ForceSpace
+
+    prob = slice_problem(read_packing(PACKINGS / "paper_mu0.1.h5"), 28.0)
+    monkeypatch.setattr(config, "SWEEP_MIN_COLUMNS", 0)
+    full = ForceSpace(ranges=False, centre=False, varying=False).compute(prob)
+    assert full.bounded is True
+
+    def boom(*args, **kw):
+        raise AssertionError("the boundedness LP ran")
+    with monkeypatch.context() as m:
+        m.setattr(force_space, "interior_max_sum_fn", boom)
+        m.setattr(force_space, "check_recession", boom)
+        run = BilliardWalk(60, seed=4).compute(prob)
+    assert run.walk_info["rounding"]["bounded"] is True
+    ref = BilliardWalk(60, seed=4).compute(prob, analysis=full)
+    assert np.array_equal(run.ensemble.samples, ref.ensemble.samples)
+    _, unbounded = lattice_in_box(0.3)
+    with pytest.raises(InputError, match="unbounded"):
+        BilliardWalk(5).compute(unbounded)
+
+
 def test_the_billiard_walk_checks_its_ess_from_its_own_floor():
     """Issue 46: a target-ESS run of the billiard walk checks its ESS from
     config.BILLIARD_MIN_DRAWS_PER_CHAIN draws per chain (the other walks from

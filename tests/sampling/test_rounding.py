@@ -115,3 +115,45 @@ def test_a_round_with_an_indefinite_ellipsoid_is_rejected_not_raised(monkeypatch
     shift, L, info = mve_rounding(H, s, np.zeros(2), ratio=1.0 + 1e-12, method="mve")
     assert info["rounds"] == 1 and info["rejected_round"] == 2
     assert np.allclose(np.sort(np.abs(np.linalg.eigvalsh(L @ L.T))), [1.0, 1e8], rtol=1e-3)
+
+
+def test_lewis_rounding_proves_a_polytope_bounded_and_never_an_unbounded_one():
+    """Issue 46: lewis_rounding's info["bounded"] (a Newton decrement of the barrier below
+    1 at its centre: the barrier has a minimiser, so the polytope is bounded). A box and a
+    simplex are proven bounded; {y >= -1} (every Newton direction meets no facet) is a
+    NumericalError; a wedge {y1 >= -1, y2 >= -1, y1 - y2 <= 1, y2 - y1 <= 1} (unbounded
+    along (1, 1), the Newton directions blocked) is never proven bounded."""
+    from forcespace.errors import NumericalError
+    from forcespace.sampling.rounding import lewis_rounding
+
+    for H, s in ((np.vstack([np.eye(3), -np.eye(3)]), np.r_[1.0, 2.0, 0.5, 1.0, 2.0, 0.5]),
+                 (np.vstack([-np.eye(4), np.ones((1, 4))]), np.r_[np.zeros(4), 1.0] + 0.1)):
+        for updates, centred in ((0, 1e-2), (5, 1e-6)):
+            _, _, info = lewis_rounding(H, s, np.zeros(H.shape[1]), max_updates=updates,
+                                        centred=centred)
+            assert info["bounded"] is True
+    with pytest.raises(NumericalError, match="unbounded"):
+        lewis_rounding(-np.eye(3), np.ones(3), np.zeros(3), max_updates=0)
+    wedge = np.array([[-1.0, 0.0], [0.0, -1.0], [1.0, -1.0], [-1.0, 1.0]])
+    try:
+        _, _, info = lewis_rounding(wedge, np.ones(4), np.zeros(2), max_updates=0,
+                                    max_newton=40, centred=1e-2)
+    except NumericalError:
+        return
+    assert info["bounded"] is None
+
+
+def test_lewis_rounding_maps_the_rows_it_rounds():
+    """Issue 46: lewis_rounding(mapped=True) returns H Lc from its leverage pass (rows
+    zero to round-off by a product): equal to the product to round-off."""
+    from forcespace.sampling.rounding import lewis_rounding
+
+    rng = np.random.default_rng(3)
+    H = rng.normal(size=(60, 7))
+    H[5] = 1e-20                                     # a row the rounding drops
+    s = 1.0 + rng.random(60)
+    c, Lc, info, HL = lewis_rounding(H, s, np.zeros(7), max_updates=2, mapped=True)
+    c2, Lc2, _ = lewis_rounding(H, s, np.zeros(7), max_updates=2)
+    assert np.array_equal(c, c2) and np.array_equal(Lc, Lc2)
+    np.testing.assert_allclose(HL, H @ Lc, rtol=0, atol=1e-13 * np.abs(H @ Lc).max())
+    assert HL.flags.c_contiguous and info["bounded"] is True

@@ -24,6 +24,7 @@ from ..linalg import onto_affine_hull
 from ..model.problem import StaticsProblem
 from ..space.force_space import ForceSpace
 from ..space.lp import inner_ball
+from ..space.questions import check_bounded
 
 
 class Frame(NamedTuple):
@@ -44,13 +45,20 @@ class Frame(NamedTuple):
     analysis: object
     widening: float = 0.0
 
-    def rounded(self, y0, L, scale: float):
+    def rounded(self, y0, L, scale: float, HL=None):
         """The frame rounded by the ellipsoid {y0 + L w} (y in units of ``scale`` =
         <Fn>): (x_centre (2m,), T (2m, d), H (p, d), s (p,)) with x = x_centre + T w and
-        the free rows H w <= s."""
+        the free rows H w <= s. ``HL``: scale H0 L when the rounding has it already
+        (rounding.lewis_rounding(mapped=True)); L is then upper triangular and T is
+        formed by a triangular product (half the flops of a general one)."""
         xc = self.xc + scale * (self.N @ y0)
         s = self.s0 - scale * (self.H0 @ y0)
-        return xc, scale * (self.N @ L), scale * (self.H0 @ L), s
+        if HL is None:
+            return xc, scale * (self.N @ L), scale * (self.H0 @ L), s
+        from scipy.linalg.blas import dtrmm
+        # T^T = scale L^T N^T: N^T is N's Fortran-ordered view, no copy
+        T = dtrmm(scale, L, self.N.T, side=0, lower=0, trans_a=1).T
+        return xc, np.ascontiguousarray(T), HL, s
 
     def unrounded(self):
         """The frame of a zero-dimensional S: (x_centre, T (2m, 0), H (p, 0), s0)."""
@@ -58,25 +66,42 @@ class Frame(NamedTuple):
                 self.s0)
 
 
-def sampled_analysis(problem, analysis=None, centre: bool = True):
+def sampled_analysis(problem, analysis=None, centre: bool = True, boundedness: bool = True):
     """The analysis of S a walk starts from (``analysis``, else ForceSpace's, without the
     varying-contacts LPs: no walk reads them, and they were most of the set-up of a dim-200
-    slice; with the Chebyshev centre unless ``centre`` is False): NumericalError if it
-    failed, InputError if S is empty or unbounded, NumericalError if a centre was asked
-    for and is missing."""
+    slice; with the Chebyshev centre unless ``centre`` is False; without the boundedness
+    LP if ``boundedness`` is False: the walk then proves S bounded itself,
+    :func:`refuse_unbounded`): NumericalError if it failed, InputError if S is empty or
+    unbounded, NumericalError if a centre was asked for and is missing."""
     an = analysis if analysis is not None else \
-        ForceSpace(ranges=False, centre=centre, varying=False).compute(problem)
+        ForceSpace(ranges=False, centre=centre, varying=False,
+                   boundedness=boundedness).compute(problem)
     if not an.success:
         raise NumericalError(f"analysis of S failed: {an.message}")
     if not an.feasible:
         raise InputError(problem.source or "problem", "S", "is empty (infeasible): nothing to sample")
-    if not an.bounded:
-        raise InputError(problem.source or "problem", "S",
-                         "is unbounded (a recession direction exists, e.g. a wedged contact); "
-                         "refusing to sample")
+    if an.bounded is None and boundedness:
+        raise InputError("analysis", "bounded", "must be decided for this walk (an analysis "
+                         "by ForceSpace(boundedness=True))", got=None)
+    if an.bounded is False:
+        _refuse(problem)
     if centre and an.centre is None:
         raise NumericalError("no Chebyshev centre computed")
     return an
+
+
+def _refuse(problem):
+    raise InputError(problem.source or "problem", "S",
+                     "is unbounded (a recession direction exists, e.g. a wedged contact); "
+                     "refusing to sample")
+
+
+def refuse_unbounded(problem, proven: bool) -> None:
+    """For a frame whose analysis left boundedness undecided (:func:`frame` with
+    ``boundedness=False``): nothing if the walk's rounding ``proven`` S bounded, else the
+    exact recession-cone LP decides (InputError if S is unbounded)."""
+    if not proven and not check_bounded(problem)[0]:
+        _refuse(problem)
 
 
 def on_large_path(problem) -> bool:
@@ -99,12 +124,15 @@ def frame_start(an, N) -> np.ndarray:
     return an.affine_point
 
 
-def frame(problem: StaticsProblem, analysis=None) -> Frame:
+def frame(problem: StaticsProblem, analysis=None, boundedness: bool = True) -> Frame:
     """The affine frame of S (:class:`Frame`), centred at :func:`frame_start`.
 
     The free rows are the inequalities that are neither implicit equalities nor
-    constant on the affine hull (|G_i N| <= FLAT_ROW)."""
-    an = sampled_analysis(problem, analysis, centre=not on_large_path(problem))
+    constant on the affine hull (|G_i N| <= FLAT_ROW). ``boundedness`` False: the
+    analysis skips its boundedness LP (``analysis.bounded`` None) and the caller must
+    decide it (:func:`refuse_unbounded`) before walking."""
+    an = sampled_analysis(problem, analysis, centre=not on_large_path(problem),
+                          boundedness=boundedness)
     G, _, _ = problem.inequalities()
     free = np.setdiff1d(np.arange(G.shape[0]), an.implicit_rows)
     N = an.affine_basis
@@ -208,8 +236,8 @@ class FrameWalk:
         checkpoint attrs) for the ensemble file."""
         t1, c1 = time.perf_counter(), time.process_time()
         if self.d:
-            y0, L, self.rounding_info = self.round()
-            xc, T, H, s = self.frame.rounded(y0, L, self.problem.force_scale)
+            y0, L, self.rounding_info, *HL = self.round()      # HL: the rows mapped, if
+            xc, T, H, s = self.frame.rounded(y0, L, self.problem.force_scale, *HL)
         else:
             xc, T, H, s = self.frame.unrounded()
         self.times["rounding_s"] = time.perf_counter() - t1

@@ -418,7 +418,8 @@ def _centre(H, s, y, u, st, max_newton, callback, centred):
     Newton decrement is below ``centred``; st counts "newton" steps (shared with the
     caller's budget). Returns (y, slacks, (At, Lm)): the slack-scaled rows and the Cholesky
     factor of M at y when the last step found the centre (the caller's M, one p x d^2 syrk
-    saved), else None."""
+    saved), else None; st["dec2"]: the squared Newton decrement at that centre. A
+    direction that meets no facet (the polytope is unbounded) is a NumericalError."""
     r = s - H @ y
     while st["newton"] < max_newton:
         At = H / r[:, None]
@@ -430,11 +431,15 @@ def _centre(H, s, y, u, st, max_newton, callback, centred):
         if callback is not None:
             callback("centre", st["newton"], st["updates"], st["excess"])
         if dec2 / 2 < centred:
+            st["dec2"] = dec2
             return y, r, (At, Lm)
         Hdy = H @ dy
         pos = Hdy > 0
-        amax = float(np.min(r[pos] / Hdy[pos])) if pos.any() else np.inf
-        y = y + _line_search(r, Hdy, u, amax if np.isfinite(amax) else 1e6) * dy
+        if not pos.any():                      # H dy <= 0: dy is a recession direction
+            raise NumericalError("rounding: the polytope is unbounded (a Newton direction "
+                                 "meets no facet)")
+        amax = float(np.min(r[pos] / Hdy[pos]))
+        y = y + _line_search(r, Hdy, u, amax) * dy
         r = s - H @ y
         if not np.all(r > 0):
             raise NumericalError("rounding: the centring left the polytope")
@@ -442,8 +447,10 @@ def _centre(H, s, y, u, st, max_newton, callback, centred):
 
 
 def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton: int = 200,
-                   callback=None, centred: float | None = None):
-    """Cheap rounding ellipsoid of {H y <= s}: (c (d,), Lc (d, d) upper triangular, info).
+                   callback=None, centred: float | None = None, mapped: bool = False):
+    """Cheap rounding ellipsoid of {H y <= s}: (c (d,), Lc (d, d) upper triangular, info),
+    with ``mapped`` also H Lc (p, d), the rows of the rounded polytope (from the leverage
+    pass's triangular solve, not a second p x d^2 product: equal to round-off).
 
     The ellipsoid {c + Lc z : |z| <= 1} is inscribed in the polytope and touches it, so
     w -> y = c + Lc w maps the polytope to {(H Lc) w <= s - H c} with the unit ball
@@ -457,17 +464,30 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     more or less round. ``centred``: half the squared Newton decrement at which a centre
     counts as found (default config.LEWIS_CENTRED). ``callback(stage, newton_steps,
     updates, excess)`` after every Newton step and weight update. info: method,
-    newton_steps, weight_updates, john_excess, converged, cpu_s.
+    newton_steps, weight_updates, john_excess, converged, cpu_s, bounded.
+
+    info["bounded"] is True when the last centring proves the polytope bounded, else None
+    (not decided). F = -sum (u_i / u_min) log r_i is a standard self-concordant barrier
+    (a sum of -log r_i with coefficients >= 1), non-degenerate (M has a Cholesky factor);
+    its Newton decrement squared is dec^2 / u_min, dec^2 = g^T M^-1 g that of -sum u_i log
+    r_i. Where it is < 1, F has a minimiser (Nesterov, Introductory Lectures on Convex
+    Optimization, 2004, Thm 4.1.11), which no unbounded polytope has (F falls without
+    bound along a recession direction). The test asks dec^2 < u_min / 2 (a factor 2 for
+    round-off); at the large path's centring (dec^2 / 2 < 1e-2, u = d / p ~ 1/6) it
+    holds with a margin of ~4. A Newton direction that meets no facet proves the
+    polytope unbounded: NumericalError.
     """
     t0 = time.process_time()
-    H, s, y, _, _ = _live_start(H, s, y0, "lewis_rounding")
+    H_all = H
+    H, s, y, _, keep = _live_start(H, s, y0, "lewis_rounding")
     p, d = H.shape
     u = np.full(p, d / p)
-    st = {"newton": 0, "updates": 0, "excess": np.inf}
+    st = {"newton": 0, "updates": 0, "excess": np.inf, "dec2": np.inf, "certified": False}
     ok = False
     while True:
         y, r, found = _centre(H, s, y, u, st, max_newton, callback,
                               config.LEWIS_CENTRED if centred is None else centred)
+        st["certified"] = found is not None and st["dec2"] < 0.5 * float(u.min())
         if found is None:                     # the Newton budget ran out before the centre
             At = H / r[:, None]
             found = At, _cholesky(_weighted_gram(At, u))
@@ -489,17 +509,31 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
     scale = 1.0 / np.sqrt(max(float(lev.max()), 1e-300))
     Lc = sla.solve_triangular(Lm.T, np.eye(d), lower=False, check_finite=False) * scale
     info = {"method": "lewis", "newton_steps": st["newton"], "weight_updates": st["updates"],
-            "john_excess": st["excess"], "converged": ok, "cpu_s": time.process_time() - t0}
-    return y, Lc, info
+            "john_excess": st["excess"], "converged": ok, "cpu_s": time.process_time() - t0,
+            "bounded": True if st["certified"] else None}
+    if not mapped:
+        return y, Lc, info
+    return y, Lc, info, _mapped_rows(H_all, keep, X, r * scale, Lc)
+
+
+def _mapped_rows(H_all, keep, X, rs, Lc):
+    """H_all Lc (p, d), C-ordered: the kept rows from X = Lm^-1 (H / r)^T (d, p_keep) as
+    rs X^T (rs = r / sqrt(max lev): Lc = Lm^-T / sqrt(max lev)), the others (rows zero to
+    round-off) by a product."""
+    HL = np.empty((keep.size, X.shape[0]))
+    HL[keep] = X.T * rs[:, None]
+    if not keep.all():
+        HL[~keep] = np.asarray(H_all, float)[~keep] @ Lc
+    return HL
 
 
 def lewis_rounding_with_progress(H, s, y0, max_updates: int = 5, progress: bool = False,
-                                 centred: float | None = None):
+                                 centred: float | None = None, mapped: bool = False):
     """:func:`lewis_rounding` with a bar on stderr: one step per Newton step or weight
     update. Its total is unknown until the first centring is done; then it is estimated
     from the Newton steps the re-centrings have taken so far (5 per update until one is
-    measured), so the bar's ETA is honest after the first update. ``centred``: as for
-    :func:`lewis_rounding`."""
+    measured), so the bar's ETA is honest after the first update. ``centred``, ``mapped``:
+    as for :func:`lewis_rounding`."""
     from ..progress import progress as progress_bar
 
     first = {}
@@ -517,4 +551,4 @@ def lewis_rounding_with_progress(H, s, y0, max_updates: int = 5, progress: bool 
 
     with bar:
         return lewis_rounding(H, s, y0, max_updates=max_updates, callback=show,
-                              centred=centred)
+                              centred=centred, mapped=mapped)

@@ -25,9 +25,10 @@ from ..progress import progress as progress_bar
 from ..result import Computed
 from .conic import CONE_FACE_TOL, analyze_conic, nearest_admissible
 from .lp import eq_system, unit_problem
-from .questions import (RangeCertificate, boundedness, centre_and_radius, column_ranges,
+from .questions import (RangeCertificate, centre_and_radius, column_ranges,
                         feasibility, implicit_kinds, interior_max_sum_fn, interior_strict_rows,
                         tight_rows, scaled_diagnosis, varying_contacts)
+from .questions import boundedness as check_recession
 
 _SCALED = ("fn_range", "ft_range", "centre", "affine_point", "radius", "max_sum_fn")
 RANGE_CERTIFICATE_CONVENTION = (
@@ -59,13 +60,23 @@ class ForceSpace(Computed):
     contact on one ray of its cone or at its apex), ``ft_range`` the range of |f_t|,
     ``centre``/``radius`` a certified inscribed ball; ``domains``, ``varying`` and
     ``implicit_rows`` are for disks only (a one-line InputError, or None).
+
+    ``boundedness=False`` (disks; only with ``ranges``, ``centre`` and ``varying`` off)
+    skips the boundedness LP: ``bounded`` and ``max_sum_fn`` are then None (not decided).
+    The billiard walk's frame asks for it on the large path, where its rounding proves S
+    bounded (:func:`forcespace.sampling.rounding.lewis_rounding`) and the LP was 4.5 of
+    the 13 CPU s of the dim-1714 slice's analysis.
     """
 
     def __init__(self, ranges: bool = False, centre: bool = True,
                  tol: float = config.IMPLICIT_TOL, progress: bool = False,
-                 varying: bool = True):
+                 varying: bool = True, boundedness: bool = True):
         self.ranges, self.centre_ball, self.tol = bool(ranges), bool(centre), float(tol)
         self.varying_test = bool(varying)
+        self.boundedness = bool(boundedness)
+        if not self.boundedness and (self.ranges or self.centre_ball or self.varying_test):
+            raise InputError("ForceSpace", "boundedness", "may be False only with ranges, "
+                             "centre and varying False (they need S bounded)", got=False)
         self.progress = bool(progress)
         self.problem: StaticsProblem | None = None
         self._domains = None
@@ -104,7 +115,8 @@ class ForceSpace(Computed):
             try:
                 analyze(P, r, ranges=self.ranges, centre=self.centre_ball,
                         tol=max(self.tol, CONE_FACE_TOL) if conic else self.tol, stage=stage,
-                        **({} if conic else {"varying": self.varying_test}))
+                        **({} if conic else {"varying": self.varying_test,
+                                             "boundedness": self.boundedness}))
             except NumericalError as exc:
                 stage()
                 self._finish(2, str(exc))
@@ -413,9 +425,10 @@ STAGES = {"feasibility and implicit equalities": 0.45, "boundedness": 0.15,
 
 
 def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol: float,
-             stage=lambda name: None, varying: bool = True):
+             stage=lambda name: None, varying: bool = True, boundedness: bool = True):
     """Fill ``out`` with the analysis of S of ``problem`` (at <Fn> = 1), in order:
-    feasibility, boundedness, implicit equalities, affine hull, ranges, centre,
+    feasibility, boundedness (unless ``boundedness`` is False: ``bounded`` stays None),
+    implicit equalities, affine hull, ranges, centre,
     varying contacts (unless ``varying`` is False: the samplers' frame needs none of its
     LPs, most of a small slice's analysis); ``stage(name)`` is called as each begins.
     Large problems (``config.SWEEP_MIN_COLUMNS`` columns and up) decide the strict rows,
@@ -454,10 +467,13 @@ def _analyze(problem: StaticsProblem, out: dict, ranges: bool, centre: bool, tol
     G, owner, kind = problem.inequalities()
     imp = tight_rows(problem, tol, None if strict is None else ~strict)
     out["implicit_rows"] = imp
-    stage("boundedness")
-    msum = interior_max_sum_fn(problem) if large else None
-    bounded, msum, rdir = (True, msum, None) if msum is not None else boundedness(problem)
-    out.update(bounded=bounded, max_sum_fn=msum, recession_direction=rdir)
+    bounded = msum = None
+    if boundedness:
+        stage("boundedness")
+        msum = interior_max_sum_fn(problem) if large else None
+        bounded, msum, rdir = (True, msum, None) if msum is not None else \
+            check_recession(problem)
+        out.update(bounded=bounded, max_sum_fn=msum, recession_direction=rdir)
     stage("affine hull")
     Eq, rhs = eq_system(problem, G[imp])
     # one point of S and the affine hull: x0 projected onto the hull (removes LP
