@@ -160,10 +160,13 @@ def velocities_from_forces(pairs, rec, body, rn, rt, dt, free):
 
 
 @kernel
-def shuffled_sweep(pairs, rec, body, rn, rt, order, runs, block, dt, omega, state):
+def shuffled_sweep(pairs, rec, body, rn, rt, x, order, runs, block, dt, omega, state):
     """One sweep of :func:`forcespace.engine.nlgs.sweep_kernel` in a fresh shuffled order
-    (as the engine's solve); returns (sum |dR| / sum |R| after it, the order's state,
-    normal updates, tangential updates)."""
+    (as the engine's solve), the forces before it kept in x (2 Nc,) = (rn, rt); returns
+    (sum |dR| / sum |R| after it, the order's state, normal updates, tangential updates)."""
+    nc = rn.shape[0]
+    x[:nc] = rn
+    x[nc:] = rt
     if block > 0:
         state = shuffle(runs, runs.shape[0], state)
     else:
@@ -215,10 +218,8 @@ def anderson_kernel(c, m, rn, rt, s, seed, depth, every, restart):
     f_norm_prev, count, slot, sweeps, rel, n_norm, n_tang = np.inf, 0, 0, 0, 0.0, 0, 0
     for sweep in range(s.max_sweeps):
         sweeps = sweep + 1
-        x[:nc] = rn
-        x[nc:] = rt
-        rel, state, nn, nt = shuffled_sweep(pairs, rec, body, rn, rt, order, runs, s.block,
-                                            s.dt, s.relaxation, state)
+        rel, state, nn, nt = shuffled_sweep(pairs, rec, body, rn, rt, x, order, runs,
+                                            s.block, s.dt, s.relaxation, state)
         n_norm += nn
         n_tang += nt
         if rel <= s.tol or depth == 0:
@@ -277,10 +278,8 @@ def nncg_kernel(c, m, rn, rt, s, seed):
     r_prev, sweeps, rel, n_norm, n_tang = np.inf, 0, 0.0, 0, 0
     for sweep in range(s.max_sweeps):
         sweeps = sweep + 1
-        x[:nc] = rn
-        x[nc:] = rt
-        rel, state, nn, nt = shuffled_sweep(pairs, rec, body, rn, rt, order, runs, s.block,
-                                            s.dt, s.relaxation, state)
+        rel, state, nn, nt = shuffled_sweep(pairs, rec, body, rn, rt, x, order, runs,
+                                            s.block, s.dt, s.relaxation, state)
         n_norm += nn
         n_tang += nt
         if rel <= s.tol:
