@@ -157,3 +157,12 @@ def test_lewis_rounding_maps_the_rows_it_rounds():
     assert np.array_equal(c, c2) and np.array_equal(Lc, Lc2)
     np.testing.assert_allclose(HL, H @ Lc, rtol=0, atol=1e-13 * np.abs(H @ Lc).max())
     assert HL.flags.c_contiguous and info["bounded"] is True
+    # the frame rounded with them: T = N Lc by the triangular product, the same frame
+    from forcespace.sampling.frame import Frame
+
+    N = np.linalg.qr(rng.normal(size=(20, 7)))[0]
+    fr = Frame(rng.normal(size=20), N, H, s, np.arange(60), None)
+    ref, new = fr.rounded(c, Lc, 2.0), fr.rounded(c, Lc, 2.0, 2.0 * HL)
+    for a, b in zip(ref, new):
+        np.testing.assert_allclose(b, a, rtol=0, atol=1e-13 * np.abs(a).max())
+    assert new[1].flags.c_contiguous
