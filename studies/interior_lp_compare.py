@@ -3,10 +3,9 @@ CPU s of each on the committed 5000-disk slice (dim S 1714), two interleaved rou
 
     OMP_NUM_THREADS=1 python studies/interior_lp_compare.py > studies/sampler_cost/interior_lps.jsonl
 
-One JSON line per (round, solver): the strict-rows LP (questions.interior_strict_rows:
-CPU s, rows found strict, the point's violation of S [<Fn>]), max sum fn
-(questions.interior_max_sum_fn) and the Chebyshev centre (questions.centre_and_radius,
-interior=True: CPU s, radius, violation), on the problem at <Fn> = 1, the implicit rows
+One JSON line per (round, solver): the strict-rows LP (interior_strict_rows: CPU s,
+rows found strict, the point's violation of S [<Fn>]), max sum fn (interior_max_sum_fn)
+and the Chebyshev centre (centre_and_radius, interior=True: CPU s, radius, violation), on the problem at <Fn> = 1, the implicit rows
 and hull from one analysis. config.INTERIOR_SOLVERS keeps the faster for each LP.
 """
 import json
@@ -15,9 +14,8 @@ from pathlib import Path
 
 import forcespace as fs
 from forcespace import config
-from forcespace.space import questions
-from forcespace.space.force_space import ForceSpace
-from forcespace.space.lp import unit_problem
+from forcespace.extend import (centre_and_radius, interior_max_sum_fn, interior_strict_rows,
+                               unit_problem)
 
 BIG = Path(__file__).parent / "big_slice" / "paper_fast_n5000_mu0.1_s1.h5"
 
@@ -25,18 +23,18 @@ BIG = Path(__file__).parent / "big_slice" / "paper_fast_n5000_mu0.1_s1.h5"
 def main() -> None:
     prob = fs.slice_problem(fs.read_packing(BIG), 140.0)
     P, _ = unit_problem(prob)
-    an = ForceSpace(ranges=False, centre=False, varying=False).compute(prob)
+    an = fs.ForceSpace(ranges=False, centre=False, varying=False).compute(prob)
     N, imp = an.affine_basis, an.implicit_rows
     for rnd in range(2):
         for solver in ("highs-ipm", "clarabel")[::1 if rnd == 0 else -1]:
             for key in config.INTERIOR_SOLVERS:
                 config.INTERIOR_SOLVERS[key] = solver
             c0 = time.process_time()
-            x, strict = questions.interior_strict_rows(P)
+            x, strict = interior_strict_rows(P)
             t1 = time.process_time()
-            msum = questions.interior_max_sum_fn(P)
+            msum = interior_max_sum_fn(P)
             t2 = time.process_time()
-            xc, r = questions.centre_and_radius(P, N, imp, interior=True)
+            xc, r = centre_and_radius(P, N, imp, interior=True)
             t3 = time.process_time()
             print(json.dumps({"solver": solver, "round": rnd, "strict_rows_cpu_s": t1 - c0,
                               "n_strict": int(strict.sum()), "violation_strict": P.violation(x),

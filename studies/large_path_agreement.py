@@ -66,7 +66,7 @@ def batches(X) -> np.ndarray:
 
 def summary(runs: list) -> dict:
     """eta (mean of the runs' batch etas) +- s.e., column means and errors (batch means)."""
-    from forcespace.measures import eta
+    from forcespace import eta
 
     B = np.concatenate([batches(X) for X in runs])
     etas = np.array([eta(b) for b in B])
