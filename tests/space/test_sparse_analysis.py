@@ -149,3 +149,32 @@ def test_interior_lp_ends_inside_its_optimal_face(solver):
                               np.zeros(0), np.zeros(3), np.full(3, inf), tol=1e-10,
                               solver=solver)
     assert st == 3
+
+
+def test_clarabel_almost_solved_is_taken_only_when_the_point_checks(monkeypatch):
+    """Clarabel's "AlmostSolved" (it ends so on the 5000-disk slice's strict-rows LP, one
+    step short of 1e-10) is an answer only when the point, clipped to its bounds, meets
+    the rows to 10 tol and the duality gap is below 1e3 tol; else status 1 (the caller
+    takes the exact path)."""
+    import clarabel
+
+    from forcespace.space.lp import solve_lp_clarabel
+
+    class Fake:
+        def __init__(self, x, gap):
+            self.status, self.x = "AlmostSolved", x
+            self.obj_val, self.obj_val_dual = -x[0], -x[0] - gap
+
+    answer = {}
+    monkeypatch.setattr(clarabel, "DefaultSolver",
+                        lambda *args: type("S", (), {"solve": lambda self: answer["sol"]})())
+    A_ub, none = sp.csr_matrix(np.array([[1.0, 1.0]])), sp.csr_matrix((0, 2))
+    args = (np.array([-1.0, 0.0]), A_ub, np.array([1.0]), none, np.zeros(0), np.zeros(2),
+            np.full(2, np.inf), 1e-10)
+    for x, gap, status in (([0.7, 0.3 - 1e-12], 1e-9, 0), ([0.7, 0.3 + 1e-6], 1e-9, 1),
+                           ([0.7, 0.3], 1e-3, 1), ([0.7, -1e-13], 1e-9, 0)):
+        answer["sol"] = Fake(np.array(x), gap)
+        st, z = solve_lp_clarabel(*args)
+        assert st == status, (x, gap)
+        if st == 0:
+            assert z.min() >= 0.0                      # clipped to its bounds
