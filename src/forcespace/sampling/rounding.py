@@ -54,6 +54,8 @@ def _live_start(H, s, y0, who: str):
     if not np.all(r > 0):
         raise InputError(who, "y0", "must be strictly inside the polytope", got=float(r.min()))
     keep = _live_rows(H / r[:, None])
+    if keep.all():                  # no copy of H (p x d) when every row can bind
+        return H, s, y, r, keep
     return H[keep], s[keep], y, r[keep], keep
 
 
@@ -492,7 +494,10 @@ def lewis_rounding(H, s, y0, max_updates: int = 5, tol: float = 0.05, max_newton
             At = H / r[:, None]
             found = At, _cholesky(_weighted_gram(At, u))
         At, Lm = found
-        X = sla.solve_triangular(Lm, At.T, lower=True, check_finite=False)
+        # X = Lm^-1 At^T (d, p) in At's own memory (At.T is Fortran-ordered; At is not
+        # used again): one p x d array less at the rounding's peak, the same numbers
+        X = sla.solve_triangular(Lm, At.T, lower=True, check_finite=False, overwrite_b=True)
+        At = found = None
         lev = np.einsum("ij,ij->j", X, X)      # a_i^T M^-1 a_i
         st["excess"] = float(lev.max() - 1.0)
         if st["excess"] <= tol:
@@ -521,9 +526,10 @@ def _mapped_rows(H_all, keep, X, rs, Lc):
     rs X^T (rs = r / sqrt(max lev): Lc = Lm^-T / sqrt(max lev)), the others (rows zero to
     round-off) by a product."""
     HL = np.empty((keep.size, X.shape[0]))
+    if keep.all():                  # in place: no p x d temporary
+        return np.multiply(X.T, rs[:, None], out=HL)
     HL[keep] = X.T * rs[:, None]
-    if not keep.all():
-        HL[~keep] = np.asarray(H_all, float)[~keep] @ Lc
+    HL[~keep] = np.asarray(H_all, float)[~keep] @ Lc
     return HL
 
 
