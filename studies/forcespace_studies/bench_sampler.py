@@ -6,9 +6,14 @@ rounding, Gram matrix, burn-in, draws, diagnostics), new code beside the code be
 seconds (user + sys of the child process, getrusage), peak RSS of the child.
 
 Cases: an 800-disk mu = 0.1 packing (``studies/sampler_cost/p800_mu0.1.h5``, slice 56 R:
-dim S 228) and the committed 5000-disk packing (``studies/big_slice/``, slice 140 R: dim S
-1714). Variants: "old" (the old commit), "new" (defaults), "new_float32"
-(``gram="float32"``; only with ``--float32``).
+dim S 228), the committed 5000-disk packing (``studies/big_slice/``, slice 140 R: dim S
+1714) and, for dim ~3000, the 10 000-disk one jammed by ``forcespace_studies.big_jam
+paper_fast_compaction --n 10000 --mu 0.1 --seed 1`` (case "n10000": the scene's slice,
+28 sqrt(N / 200) R = 198 R as 140 R at 5000 disks; dim S ~3400).
+Variants: "old" (the old commit), "new" (defaults), "new_float32" (``gram="float32"``;
+only with ``--float32``); ``--no-old`` leaves the old code out (where the new code alone
+is measured, as at dim ~3000). Numba's caches are warmed once, untimed, on the small
+case, whichever cases run.
 Each child reads the packing, cuts the slice and runs ``BilliardWalk(100000, seed=1,
 target_ess=100)``; "run_cpu_s" is the CPU of that call (everything after reading the
 packing), "process_cpu_s" the whole child (Python start and imports included). The
@@ -43,7 +48,9 @@ from .bench_engine import _children_cpu, log, old_sources
 OLD_COMMIT = "c794887"
 CASES = {"small": ("p800 mu0.1 slice 56", "studies/sampler_cost/p800_mu0.1.h5", 56.0),
          "big": ("paper_fast n5000 mu0.1 slice 140", "studies/big_slice/"
-                 "paper_fast_n5000_mu0.1_s1.h5", 140.0)}
+                 "paper_fast_n5000_mu0.1_s1.h5", 140.0),
+         "n10000": ("paper_fast_compaction n10000 mu0.1 slice 198", "studies/packings/"
+                    "paper_fast_compaction_n10000_mu0.1_s1.h5", 28.0 * np.sqrt(50.0))}
 VARIANTS = {"old": {}, "new": {}}
 FLOAT32 = {"new_float32": {"gram": "float32"}}
 
@@ -81,8 +88,8 @@ def run_child(src: Path | None, packing: str, height: float, kw: dict, npz: Path
     if src is not None:
         env["PYTHONPATH"] = str(src / "src")
     c0, w0 = _children_cpu(), time.perf_counter()
-    res = subprocess.run([sys.executable, "-c", CHILD, packing, f"{height:g}", json.dumps(kw),
-                          str(npz)], capture_output=True, text=True, env=env)
+    res = subprocess.run([sys.executable, "-c", CHILD, packing, repr(float(height)),
+                          json.dumps(kw), str(npz)], capture_output=True, text=True, env=env)
     cpu, wall = _children_cpu() - c0, time.perf_counter() - w0
     if res.returncode != 0:
         raise RuntimeError(f"billiard run exited {res.returncode}: {res.stderr[-800:]}")
@@ -105,9 +112,6 @@ def bench_case(key: str, old: tuple, rounds: int, tmp: Path, variants: dict) -> 
     name, packing, height = CASES[key]
     old_commit, old_src = old
     srcs = {v: (old_src if v == "old" else None) for v in variants}
-    if key == "small":                                   # untimed: numba caches warm
-        for v in variants:                               # (the same kernels at every size)
-            run_child(srcs[v], packing, height, variants[v], tmp / f"warm_{v}.npz")
     runs = {v: [] for v in variants}
     for k in range(rounds):
         order = list(variants) if k % 2 == 0 else list(variants)[::-1]
@@ -118,22 +122,32 @@ def bench_case(key: str, old: tuple, rounds: int, tmp: Path, variants: dict) -> 
             log(f"  {name} {v}: run {r['run_cpu_s']:.1f} CPU s (process "
                 f"{r['process_cpu_s']:.1f}), ESS {r['min_ess']:.0f}, R-hat "
                 f"{r['max_rhat']:.3f}, {r['peak_rss_mb']:.0f} MB")
-    row = {"case": name, "packing": packing, "slice_height": height, "old_commit": old_commit}
+    row = {"case": name, "packing": packing, "slice_height": height,
+           "old_commit": old_commit if "old" in variants else None}
     for v, rs in runs.items():
         best = int(np.argsort([r["run_cpu_s"] for r in rs])[len(rs) // 2])
         row[v] = {**rs[best], "run_cpu_s_runs": [r["run_cpu_s"] for r in rs],
                   "process_cpu_s_runs": [r["process_cpu_s"] for r in rs]}
-    row["same_samples_old_new"] = bool(
-        np.array_equal(np.load(tmp / f"{key}_old.npz")["mean"],
-                       np.load(tmp / f"{key}_new.npz")["mean"]))
-    row["new_vs_old"] = agreement(tmp / f"{key}_old.npz", tmp / f"{key}_new.npz",
-                                  row["old"], row["new"])
+    if "old" in variants:
+        row["same_samples_old_new"] = bool(
+            np.array_equal(np.load(tmp / f"{key}_old.npz")["mean"],
+                           np.load(tmp / f"{key}_new.npz")["mean"]))
+        row["new_vs_old"] = agreement(tmp / f"{key}_old.npz", tmp / f"{key}_new.npz",
+                                      row["old"], row["new"])
+        row["speedup_run_cpu"] = row["old"]["run_cpu_s"] / row["new"]["run_cpu_s"]
     if "new_float32" in variants:
         row["float32_vs_float64"] = agreement(tmp / f"{key}_new.npz",
                                               tmp / f"{key}_new_float32.npz", row["new"],
                                               row["new_float32"])
-    row["speedup_run_cpu"] = row["old"]["run_cpu_s"] / row["new"]["run_cpu_s"]
     return row
+
+
+def warm(srcs: dict, variants: dict, tmp: Path) -> None:
+    """Untimed runs of the small case: numba's caches warm (the same kernels at every
+    size)."""
+    _, packing, height = CASES["small"]
+    for v in variants:
+        run_child(srcs[v], packing, height, variants[v], tmp / f"warm_{v}.npz")
 
 
 def merge_section(path: Path, section: dict) -> None:
@@ -157,28 +171,36 @@ def main(argv=None) -> int:
     ap.add_argument("--old-src", type=Path, default=None,
                     help="sources of the old code (default: exported from git at --old)")
     ap.add_argument("--float32", action="store_true", help="also the float32-Gram variant")
+    ap.add_argument("--no-old", action="store_true", help="the new code only")
     ap.add_argument("--keep", type=Path, default=None,
                     help="directory to keep each run's samples (by chain), column means and "
                          "errors in")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
-    old_src = a.old_src or old_sources(Path.cwd(), a.out / f"old_code_{a.old}", a.old)
     variants = {**VARIANTS, **(FLOAT32 if a.float32 else {})}
+    if a.no_old:
+        variants.pop("old")
+        old_src = None
+    else:
+        old_src = a.old_src or old_sources(Path.cwd(), a.out / f"old_code_{a.old}", a.old)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         if a.keep is not None:
             a.keep.mkdir(parents=True, exist_ok=True)
             tmp = a.keep
+        warm({v: (old_src if v == "old" else None) for v in variants}, variants, Path(tmp))
         for key in a.cases.split(","):
-            log(f"billiard to ESS 100, {CASES[key][0]}: {', '.join(variants)} (old: {a.old})")
+            log(f"billiard to ESS 100, {CASES[key][0]}: {', '.join(variants)}"
+                + ("" if a.no_old else f" (old: {a.old})"))
             rows.append(bench_case(key, (a.old, old_src),
                                    a.rounds if key == "small" else a.big_rounds, Path(tmp),
                                    variants))
-    merge_section(a.out / "bench.json", {
+    header = {} if a.no_old else {     # without old code: the section's header is kept
         "old_commit": a.old, "machine": platform.platform(), "cpu_count": os.cpu_count(),
         "timing": "CPU (user + sys) of the child process, median of the rounds; "
                   "OMP_NUM_THREADS=1; 2 cores shared with other jobs",
-        "run": "BilliardWalk(100000, seed=1, target_ess=100).compute(slice)", "cases": rows})
+        "run": "BilliardWalk(100000, seed=1, target_ess=100).compute(slice)"}
+    merge_section(a.out / "bench.json", {**header, "cases": rows})
     log(f"wrote section 'billiard' of {a.out / 'bench.json'}")
     return 0
 
