@@ -15,14 +15,14 @@ logged with what the frozen configuration looks like:
   admissible networks (an LP, Clarabel), in units of the largest load, and the number of
   body rows it falls on.
 
-Kept as text, not as a study module: it wraps an engine internal
-(``forcespace.engine.compress.certified``), which the house rules keep the studies
-from importing; run it with the project's python as below.
+A diagnostic of the engine beside :mod:`forcespace.engine.jam_profile` and
+:mod:`forcespace.engine.sweep_acceleration` (it wraps an engine function, which the studies
+may not import).
 
 Writes OUT/certificate_failures_N_muMU_sSEED.json (one row per attempt, units above) and
 prints a table. A diagnostic, not part of the protocol. Usage::
 
-    python studies/results/jam_profile/certificate_failures/certificate_failures.py.txt --n 2000 --mu 1 --seed 1 \
+    python -m forcespace.engine.certificate_failures --n 2000 --mu 1 --seed 1 \
         --scene paper_fast_compaction --set solver.tolerance=1e-8 [--out DIR]
 """
 from __future__ import annotations
@@ -138,13 +138,11 @@ def diagnose(setup, bodies, run, settings) -> dict:
     return row
 
 
-def run(scene: str, n: int, mu: float, seed: int, settings: dict) -> list[dict]:
-    """Jam the scene once with every certificate attempt diagnosed; the rows."""
+def run(setup) -> list[dict]:
+    """Jam ``setup`` (model.setup.Setup) once with every certificate attempt diagnosed;
+    the rows."""
     from forcespace.engine import compress, protocol
-    from forcespace.engine.jam_profile import scene_for
-    from forcespace.model.setup import Setup
 
-    setup = Setup.from_scene(scene_for(scene, n, mu, {**settings, "scene.seed": seed}))
     rows, engine_certified, runs = [], compress.certified, []
 
     def logged(setup_, bodies, run_, cert_settings):
@@ -209,7 +207,10 @@ def main(argv=None) -> int:
         return 0
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     settings = {k: json.loads(v) for k, v in (s.split("=", 1) for s in a.set)}
-    rows = run(a.scene, a.n, a.mu, a.seed, settings)
+    from forcespace.engine.jam_profile import scene_for
+    from forcespace.model.setup import Setup
+    rows = run(Setup.from_scene(scene_for(a.scene, a.n, a.mu,
+                                          {**settings, "scene.seed": a.seed})))
     a.out.mkdir(parents=True, exist_ok=True)
     path = a.out / f"certificate_failures_{a.n}_mu{a.mu:g}_s{a.seed}.json"
     tmp = path.with_name(f".{path.name}.tmp")
