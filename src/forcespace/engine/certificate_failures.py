@@ -36,6 +36,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from ..io.h5 import atomic_path
+
 GAPS = (1e-5, 1e-4, 1e-3, 1e-2)        # [R] larger contact gap tolerances tried
 
 
@@ -213,10 +215,10 @@ def main(argv=None) -> int:
                                           {**settings, "scene.seed": a.seed})))
     a.out.mkdir(parents=True, exist_ok=True)
     path = a.out / f"certificate_failures_{a.n}_mu{a.mu:g}_s{a.seed}.json"
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps({"scene": a.scene, "n": a.n, "mu": a.mu, "seed": a.seed,
-                               "settings": settings, "attempts": rows}, indent=1))
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(json.dumps({"scene": a.scene, "n": a.n, "mu": a.mu,
+                                         "seed": a.seed, "settings": settings,
+                                         "attempts": rows}, indent=1))
     print("\n".join(summary(json.loads(path.read_text()))))
     return 0
 

@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.h5 import atomic_path
+
 DETECT_EVERY = 10      # windows between two detection timings
 DETECT_REPEATS = 20
 
@@ -169,9 +171,8 @@ def main(argv=None) -> int:
     p = dict(profile(setup), scene=a.scene, settings=settings)
     a.out.mkdir(parents=True, exist_ok=True)
     path = a.out / f"profile_{a.n}_mu{a.mu:g}.json"
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(p, indent=1))
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(json.dumps(p, indent=1))
     print("| phase | windows | CPU s | share | sweeps / step | steps at cap |")
     print("|---|---|---|---|---|---|")
     print("\n".join(table(p)))

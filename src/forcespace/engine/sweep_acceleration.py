@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.h5 import atomic_path
 from ..kernels import kernel
 from ..streams import order_state, shuffle
 from .nlgs import records_kernel, sweep_kernel
@@ -67,9 +68,8 @@ def save_state(path: Path, bodies, run, seed: int, settings) -> None:
     arrays.update(keys=run.contacts.keys, rn=run.contacts.rn, rt=run.contacts.rt)
     meta = {"steps": run.steps, "window_seed": window_seed(seed, run.steps),
             "box": list(box), "step": list(step), "sweep": list(sweep)}
-    tmp = path.with_name(f".{path.stem}.tmp.npz")
-    np.savez(tmp, meta=json.dumps(meta), **arrays)
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, meta=json.dumps(meta), **arrays)
 
 
 class Enough(Exception):
@@ -103,9 +103,8 @@ def capture(n: int, mu: float, out: Path, windows: int) -> None:
     finally:
         compress.run_window = original
     path = out / f"profile_{n}_mu{mu:g}.json"
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(p, indent=1))
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(json.dumps(p, indent=1))
     print("\n".join(jam_profile.compaction_phases(p)))
 
 
