@@ -73,7 +73,7 @@ def _quantile7(v, q: float) -> float:
     x = np.sort(np.asarray(v, float).ravel())
     n = x.size
     p = np.atleast_1d(np.asarray(q, float))
-    aleph = n * p + (1.0 + p * (1.0 - 1.0 - 1.0))
+    aleph = n * p + (1.0 - p)       # mquantiles' n p + alphap + p (1 - alphap - betap)
     k = np.floor(aleph.clip(1, n - 1)).astype(int)
     gamma = (aleph - k).clip(0, 1)
     return float(((1.0 - gamma) * x[(k - 1).tolist()] + gamma * x[k.tolist()])[0])
